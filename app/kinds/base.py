@@ -1,0 +1,110 @@
+"""The contract between the job service and one job kind.
+
+A kind module (``app/kinds/<kind>.py``) is the API edge of one solver: it
+declares the pydantic parameter model (SI units, angles in degrees, every field
+defaulted and documented), the named presets, and ``run(params, ctx)``, which
+converts parameters to the solver's SI/radian dataclass, calls the solver with
+the context's progress and stop callbacks, and turns the solution into the
+JSON result of ``shared/specs/api.md``.  Nothing here knows about HTTP,
+Celery or SQL: the worker supplies a :class:`JobContext`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Callable, Literal, Protocol
+
+from pydantic import BaseModel, ConfigDict
+
+
+class StrictModel(BaseModel):
+    """Base for parameter models: unknown fields are a 422, NaN/inf are rejected."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, validate_default=True)
+
+
+class JobContext(Protocol):
+    """What a running job may ask of the service."""
+
+    job_id: str
+
+    def progress(self, fraction: float, message: str) -> None:
+        """Report progress in [0, 1] (kept monotone by the service) and a short message."""
+
+    def should_stop(self) -> bool:
+        """True once the job was cancelled; poll it from the solver's iteration callback."""
+
+    def load_result(self, job_id: str) -> dict:
+        """The stored result of another succeeded job (for warm starts).
+
+        Raises ``LookupError`` with a user-facing message if the job does not
+        exist or has not succeeded.
+        """
+
+
+class JobFailure(Exception):
+    """Raised by ``run`` for an expected, user-facing failure (bad warm-start id,
+    data that validates but cannot be solved).  ``code`` is one of the API's
+    error codes; ``details`` is stored as the diagnostic."""
+
+    def __init__(self, code: str, message: str, details: dict | None = None):
+        super().__init__(message)
+        self.code = code
+        self.message = message
+        self.details = details or {}
+
+
+@dataclass
+class RunOutcome:
+    """What ``run`` returns.
+
+    ``status`` ``succeeded`` needs ``result``; ``failed`` needs ``error``
+    (``{"code", "message"}`` plus optional ``details``) and may still carry a
+    ``result`` as the stored diagnostic (e.g. the last iterate);
+    ``cancelled`` may carry a partial ``result`` (e.g. the best Pareto front so far).
+    """
+
+    status: Literal["succeeded", "failed", "cancelled"]
+    result: dict | None = None
+    error: dict | None = None
+
+
+@dataclass
+class Preset:
+    name: str
+    kind: str
+    description: str
+    params: dict[str, Any]   # partial parameters in API units, deep-merged onto the defaults
+
+
+@dataclass
+class KindSpec:
+    kind: str
+    params_model: type[StrictModel]
+    run: Callable[[Any, JobContext], RunOutcome]
+    presets: list[Preset] = field(default_factory=list)
+    summary: str = ""
+
+
+def outcome_from_status(status, result: dict | None) -> RunOutcome:
+    """Turn a solver's :class:`solvers.common.SolveStatus` into a :class:`RunOutcome`."""
+    from solvers.common import Outcome
+
+    if status.outcome is Outcome.OPTIMAL:
+        return RunOutcome("succeeded", result=result)
+    if status.outcome is Outcome.CANCELLED:
+        return RunOutcome("cancelled", result=result,
+                          error={"code": "cancelled", "message": "cancelled by request"})
+    code = {
+        Outcome.INFEASIBLE: "infeasible",
+        Outcome.NOT_CONVERGED: "not_converged",
+    }.get(status.outcome, "internal")
+    msg = status.message or status.solver_status
+    if status.solver_status and status.solver_status not in msg:
+        msg = f"{status.solver_status}: {msg}"
+    details = {
+        "solver_status": status.solver_status,
+        "iterations": status.iterations,
+        "max_constraint_violation": status.max_constraint_violation,
+        **status.details,
+    }
+    return RunOutcome("failed", result=result, error={"code": code, "message": msg, "details": details})

@@ -1,0 +1,1 @@
+"""trajlab numerics: pure functions and dataclasses, SI units, no web/queue/DB imports."""
