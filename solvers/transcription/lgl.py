@@ -1,0 +1,190 @@
+"""Legendre-Gauss-Lobatto (LGL) pseudospectral collocation: nodes, weights,
+differentiation matrix, Lagrange interpolation, and a multi-segment mesh with
+h-refinement.
+
+Sources: Fahroo & Ross, "Costate estimation by a Legendre pseudospectral
+method", JGCD 24(2), 2001 (nodes, weights, D-matrix eq. 8-10, covector
+mapping lambda_i = nu_i / w_i); Betts, *Practical Methods for Optimal Control*,
+2nd ed., sec. 4.7 (mesh refinement by splitting intervals where the local
+error is large).
+
+On one segment the state is the degree ``n-1`` polynomial through its values at
+``n`` LGL nodes ``tau in [-1, 1]``; the collocation constraint is
+``D @ X = (h/2) f(X, U)`` with ``h`` the segment's duration.  A mesh of several
+segments (each with its own nodes, linked by state continuity) lets controls
+jump at segment boundaries: this is how a bang-bang thrust switch is
+represented exactly once a boundary sits on the switch.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+
+@lru_cache(maxsize=64)
+def _lgl(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    if n < 2:
+        raise ValueError("LGL needs at least 2 nodes")
+    N = n - 1
+    # Chebyshev-Gauss-Lobatto start, then Newton on (1 - x^2) P_N'(x) using the
+    # Legendre recurrence (converges to machine precision for n in the hundreds).
+    x = np.cos(np.pi * np.arange(n) / N)
+    P = np.zeros((n, n))
+    x_old = np.full(n, 2.0)
+    for _ in range(100):
+        if np.max(np.abs(x - x_old)) <= 1e-15:
+            break
+        x_old = x.copy()
+        P[:, 0] = 1.0
+        P[:, 1] = x
+        for k in range(2, n):
+            P[:, k] = ((2 * k - 1) * x * P[:, k - 1] - (k - 1) * P[:, k - 2]) / k
+        x = x_old - (x * P[:, N] - P[:, N - 1]) / (n * P[:, N])
+    x = np.sort(x)
+    x[0], x[-1] = -1.0, 1.0
+    PN = _legendre(N, x)
+    w = 2.0 / (N * (N + 1) * PN**2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        D = (PN[:, None] / PN[None, :]) / (x[:, None] - x[None, :])
+    np.fill_diagonal(D, 0.0)
+    D[0, 0] = -N * (N + 1) / 4.0
+    D[-1, -1] = N * (N + 1) / 4.0
+    for a in (x, w, D):
+        a.setflags(write=False)
+    return x, w, D
+
+
+def _legendre(N: int, x: np.ndarray) -> np.ndarray:
+    p0, p1 = np.ones_like(x), x
+    if N == 0:
+        return p0
+    for k in range(2, N + 1):
+        p0, p1 = p1, ((2 * k - 1) * x * p1 - (k - 1) * p0) / k
+    return p1
+
+
+def lgl_nodes(n: int) -> np.ndarray:
+    """The ``n`` LGL nodes on [-1, 1], ascending: -1, 1 and the roots of P'_{n-1}."""
+    return _lgl(n)[0]
+
+
+def lgl_weights(n: int) -> np.ndarray:
+    """Quadrature weights ``2 / (N (N+1) P_N(x_i)^2)``, N = n-1: exact for degree <= 2n-3."""
+    return _lgl(n)[1]
+
+
+def lgl_diff_matrix(n: int) -> np.ndarray:
+    """``D`` with ``(D @ p(x))_i = p'(x_i)`` exactly for polynomials of degree <= n-1."""
+    return _lgl(n)[2]
+
+
+def lagrange_matrix(nodes: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """``L`` (len(points) x len(nodes)) with ``L @ values`` the interpolant at ``points``.
+
+    Barycentric form (Berrut & Trefethen 2004): stable for LGL nodes of any
+    practical count, and exact at the nodes themselves.
+    """
+    nodes = np.asarray(nodes, float)
+    points = np.atleast_1d(np.asarray(points, float))
+    diff = nodes[:, None] - nodes[None, :]
+    np.fill_diagonal(diff, 1.0)
+    bw = 1.0 / np.prod(diff, axis=1)
+    d = points[:, None] - nodes[None, :]
+    exact = d == 0.0
+    d[exact] = 1.0
+    L = bw[None, :] / d
+    L /= L.sum(axis=1, keepdims=True)
+    rows = exact.any(axis=1)
+    L[rows] = exact[rows].astype(float)
+    return L
+
+
+@dataclass(frozen=True)
+class Mesh:
+    """Segments on the normalized horizon [0, 1], each with ``nodes`` LGL nodes.
+
+    ``boundaries`` are the segment edges as fractions of the horizon (first 0,
+    last 1, strictly increasing).  One node count for all segments keeps one
+    mapped segment function per NLP (h-refinement adds segments, not nodes).
+    """
+
+    boundaries: tuple[float, ...]
+    nodes: int
+
+    def __post_init__(self):
+        b = np.asarray(self.boundaries, float)
+        if b.size < 2 or abs(b[0]) > 1e-14 or abs(b[-1] - 1.0) > 1e-14 or np.any(np.diff(b) <= 0):
+            raise ValueError("mesh boundaries must increase strictly from 0 to 1")
+        if self.nodes < 3:
+            raise ValueError("a segment needs at least 3 LGL nodes")
+
+    @classmethod
+    def uniform(cls, segments: int, nodes: int) -> "Mesh":
+        return cls(tuple(np.linspace(0.0, 1.0, segments + 1).tolist()), nodes)
+
+    @property
+    def segments(self) -> int:
+        return len(self.boundaries) - 1
+
+    @property
+    def total_nodes(self) -> int:
+        return self.segments * self.nodes
+
+    @property
+    def fractions(self) -> np.ndarray:
+        """Segment durations as fractions of the horizon."""
+        return np.diff(np.asarray(self.boundaries, float))
+
+    def node_fractions(self) -> np.ndarray:
+        """Node positions on [0, 1], shape (segments, nodes); shared edges appear twice."""
+        b = np.asarray(self.boundaries, float)
+        tau = lgl_nodes(self.nodes)
+        return b[:-1, None] + 0.5 * (tau[None, :] + 1.0) * np.diff(b)[:, None]
+
+    def segment_of(self, s: np.ndarray) -> np.ndarray:
+        """Index of the segment holding each normalized time ``s`` (right edge -> last segment)."""
+        b = np.asarray(self.boundaries, float)
+        return np.clip(np.searchsorted(b, s, side="right") - 1, 0, self.segments - 1)
+
+    def interpolate(self, values: np.ndarray, s: np.ndarray) -> np.ndarray:
+        """Evaluate per-segment Lagrange interpolants at normalized times ``s``.
+
+        ``values`` has shape (k, segments, nodes); returns (k, len(s)).
+        """
+        s = np.atleast_1d(np.asarray(s, float))
+        seg = self.segment_of(s)
+        b = np.asarray(self.boundaries, float)
+        tau = 2.0 * (s - b[seg]) / (b[seg + 1] - b[seg]) - 1.0
+        out = np.empty((values.shape[0], s.size))
+        nodes = lgl_nodes(self.nodes)
+        for k in np.unique(seg):
+            idx = seg == k
+            out[:, idx] = values[:, k, :] @ lagrange_matrix(nodes, tau[idx]).T
+        return out
+
+
+def refine_mesh(mesh: Mesh, *, split: np.ndarray, split_at: dict[int, float] | None = None,
+                min_fraction: float = 1e-5, max_segments: int = 400) -> Mesh:
+    """h-refinement: split each flagged segment.
+
+    ``split`` is a boolean per segment; ``split_at`` optionally gives, per
+    segment, the normalized time where the split should go (a control switch,
+    so the new boundary lands on the discontinuity); otherwise the segment is
+    halved.  Pieces shorter than ``min_fraction`` are not created (the switch
+    is then already resolved to that precision).
+    """
+    split_at = split_at or {}
+    b = list(mesh.boundaries)
+    out = [b[0]]
+    for k in range(mesh.segments):
+        lo, hi = b[k], b[k + 1]
+        if split[k] and len(out) - 1 + (mesh.segments - k) < max_segments:
+            cut = split_at.get(k, 0.5 * (lo + hi))
+            if cut - lo >= min_fraction and hi - cut >= min_fraction:
+                out.append(float(cut))
+            elif hi - lo >= 2 * min_fraction and k not in split_at:
+                out.append(0.5 * (lo + hi))
+        out.append(hi)
+    return Mesh(tuple(out), mesh.nodes)
