@@ -1,0 +1,248 @@
+"""CADET: mean and covariance propagation through nonlinear dynamics with uncertain constant parameters.
+
+Covariance analysis describing function technique (Gelb, *Applied Optimal
+Estimation*, ch. 6; used for robust reentry design in paper 001, its eqs. 5-8
+and appendix A).  For Gaussian states the describing function of ``f`` is
+``E[df/dz]``; evaluated at the mean this gives the first-order equations
+
+    dm/dt = f(m, u, mu_s)  [+ 0.5 tr(H_i P) per component, second order]
+    dP/dt = F P + P F^T
+
+on the augmented state ``z = [x; s]`` with ``ds/dt = 0``.  Because ``s`` is
+constant, ``P_ss`` never changes and only ``P_xx`` (symmetric, stored as its
+upper triangle) and the cross-covariance ``P_xs`` evolve:
+
+    dP_xx/dt = F_x P_xx + F_s P_sx + (F_x P_xx + F_s P_sx)^T
+    dP_xs/dt = F_x P_xs + F_s P_ss
+
+For 6 states and 2 parameters that is 6 + 21 + 12 = 39 ODEs instead of
+6 + 64.  Everything is built as CasADi SX so the NLP that uses it gets exact
+derivatives; one RK4 interval function is built once and ``map``-ped.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+
+def triu_indices(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Row/column indices of the packed upper triangle (row-major), the storage order of P_xx."""
+    return np.triu_indices(n)
+
+
+def _sym_from_triu(v, n: int):
+    """Symmetric SX matrix from its packed upper triangle."""
+    M = ca.SX.zeros(n, n)
+    rows, cols = triu_indices(n)
+    for k, (i, j) in enumerate(zip(rows, cols)):
+        M[i, j] = v[k]
+        M[j, i] = v[k]
+    return M
+
+
+@dataclass(frozen=True)
+class CadetLayout:
+    """Where mean, P_xx (upper triangle) and P_xs sit in the packed augmented vector."""
+
+    nx: int
+    ns: int
+
+    @property
+    def n_pxx(self) -> int:
+        return self.nx * (self.nx + 1) // 2
+
+    @property
+    def n_pxs(self) -> int:
+        return self.nx * self.ns
+
+    @property
+    def nz(self) -> int:
+        return self.nx + self.n_pxx + self.n_pxs
+
+    def pack(self, m, P_xx, P_xs) -> np.ndarray:
+        """Packed vector(s) from mean(s) ``m`` (nx[,N]), ``P_xx`` (nx,nx[,N]) and ``P_xs`` (nx,ns[,N])."""
+        m = np.asarray(m, float)
+        P_xx = np.asarray(P_xx, float)
+        P_xs = np.asarray(P_xs, float)
+        rows, cols = triu_indices(self.nx)
+        # P_xs is stored column-major (CasADi's order) so reshape agrees on both sides.
+        pxs = P_xs.reshape((self.nx * self.ns,) + P_xs.shape[2:], order="F")
+        return np.concatenate([m, P_xx[rows, cols], pxs], axis=0)
+
+    def unpack(self, z) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(m, P_xx, P_xs)`` from packed vector(s) ``z`` of shape (nz,) or (nz, N)."""
+        z = np.asarray(z, float)
+        nx, ns = self.nx, self.ns
+        tail = z.shape[1:]
+        m = z[:nx]
+        v = z[nx:nx + self.n_pxx]
+        P_xx = np.zeros((nx, nx) + tail)
+        rows, cols = triu_indices(nx)
+        P_xx[rows, cols] = v
+        P_xx[cols, rows] = v
+        P_xs = z[nx + self.n_pxx:].reshape((nx, ns) + tail, order="F")
+        return m, P_xx, P_xs
+
+    def scale(self, x_scale, s_scale) -> np.ndarray:
+        """Per-entry scale of the packed vector: variances scale with the products of state scales.
+
+        ``x_scale`` is a typical magnitude of each state's *deviation* (a sigma scale),
+        ``s_scale`` the same for each parameter; the mean uses ``x_scale`` of the
+        caller's mean scaling passed separately (see :meth:`scale_with_mean`).
+        """
+        return self.scale_with_mean(x_scale, x_scale, s_scale)
+
+    def scale_with_mean(self, mean_scale, sigma_scale, s_scale) -> np.ndarray:
+        mean_scale = np.asarray(mean_scale, float)
+        sx = np.asarray(sigma_scale, float)
+        ss = np.asarray(s_scale, float)
+        rows, cols = triu_indices(self.nx)
+        pxx = sx[rows] * sx[cols]
+        pxs = np.outer(sx, ss).reshape(-1, order="F")
+        return np.concatenate([mean_scale, pxx, pxs])
+
+
+class CadetSystem:
+    """CADET equations for ``dx/dt = f(x, u, s)`` with constant uncertain ``s ~ N(mu_s, P_ss)``.
+
+    ``f`` is a CasADi Function ``(x[nx], u[nu], s[ns]) -> xdot[nx]`` that accepts SX.
+    Functions built here take ``theta = [mu_s; vec(P_ss)]`` (column-major) as the
+    parameter vector so the uncertainty can be an NLP parameter instead of part of
+    the cached structure.
+    """
+
+    def __init__(self, f: ca.Function, *, nx: int, nu: int, ns: int, second_order: bool = False):
+        self.f = f
+        self.nx, self.nu, self.ns = nx, nu, ns
+        self.second_order = second_order
+        self.layout = CadetLayout(nx, ns)
+        self.n_theta = ns + ns * ns
+        self.rhs = self._build_rhs()
+
+    # -- the continuous equations -------------------------------------------------
+    def _build_rhs(self) -> ca.Function:
+        nx, nu, ns, L = self.nx, self.nu, self.ns, self.layout
+        z = ca.SX.sym("z", L.nz)
+        u = ca.SX.sym("u", nu)
+        theta = ca.SX.sym("theta", self.n_theta)
+        m = z[:nx]
+        P_xx = _sym_from_triu(z[nx:nx + L.n_pxx], nx)
+        P_xs = ca.reshape(z[nx + L.n_pxx:], nx, ns)
+        mu_s = theta[:ns]
+        P_ss = ca.reshape(theta[ns:], ns, ns)
+
+        xs = ca.SX.sym("x", nx)
+        ss = ca.SX.sym("s", ns)
+        fx = self.f(xs, u, ss)
+        F_x_f = ca.Function("F_x", [xs, u, ss], [ca.jacobian(fx, xs), ca.jacobian(fx, ss)])
+        F_x, F_s = F_x_f(m, u, mu_s)
+
+        mdot = self.f(m, u, mu_s)
+        if self.second_order:
+            # 0.5 tr(H_i P) over the augmented covariance; the P_ss block matters
+            # because f is nonlinear in s through products like (1 + s) * rho * v^2.
+            zaug = ca.vertcat(xs, ss)
+            P = ca.blockcat([[P_xx, P_xs], [P_xs.T, P_ss]])
+            corr = []
+            for i in range(nx):
+                H = ca.hessian(fx[i], zaug)[0]
+                H_f = ca.Function("H", [xs, u, ss], [H])
+                corr.append(0.5 * ca.trace(ca.mtimes(H_f(m, u, mu_s), P)))
+            mdot = mdot + ca.vertcat(*corr)
+
+        A = ca.mtimes(F_x, P_xx) + ca.mtimes(F_s, P_xs.T)
+        Pxx_dot = A + A.T
+        Pxs_dot = ca.mtimes(F_x, P_xs) + ca.mtimes(F_s, P_ss)
+        rows, cols = triu_indices(nx)
+        pxx_dot = ca.vertcat(*[Pxx_dot[int(i), int(j)] for i, j in zip(rows, cols)])
+        zdot = ca.vertcat(mdot, pxx_dot, ca.reshape(Pxs_dot, nx * ns, 1))
+        return ca.Function("cadet_rhs", [z, u, theta], [zdot], ["z", "u", "theta"], ["zdot"])
+
+    @staticmethod
+    def theta(mu_s, P_ss) -> np.ndarray:
+        """Parameter vector ``[mu_s; vec(P_ss)]`` in the order the built functions expect."""
+        mu_s = np.atleast_1d(np.asarray(mu_s, float))
+        P_ss = np.atleast_2d(np.asarray(P_ss, float))
+        return np.concatenate([mu_s, P_ss.reshape(-1, order="F")])
+
+    # -- discretisation -----------------------------------------------------------
+    def interval(self, substeps: int) -> ca.Function:
+        """RK4 over one interval with the control linear between its end values.
+
+        ``(z0, u0, u1, dt, theta) -> (z1, zsub)`` where ``zsub`` (nz x substeps) holds the
+        state at the end of each substep (its last column is ``z1``), so a transcription
+        can enforce path constraints between nodes.
+        """
+        L = self.layout
+        z0 = ca.SX.sym("z0", L.nz)
+        u0 = ca.SX.sym("u0", self.nu)
+        u1 = ca.SX.sym("u1", self.nu)
+        dt = ca.SX.sym("dt")
+        theta = ca.SX.sym("theta", self.n_theta)
+        h = dt / substeps
+        z = z0
+        cols = []
+        for k in range(substeps):
+            a = k / substeps
+            b = (k + 0.5) / substeps
+            c = (k + 1) / substeps
+            ua = u0 + a * (u1 - u0)
+            ub = u0 + b * (u1 - u0)
+            uc = u0 + c * (u1 - u0)
+            k1 = self.rhs(z, ua, theta)
+            k2 = self.rhs(z + 0.5 * h * k1, ub, theta)
+            k3 = self.rhs(z + 0.5 * h * k2, ub, theta)
+            k4 = self.rhs(z + h * k3, uc, theta)
+            z = z + h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+            cols.append(z)
+        return ca.Function("cadet_interval", [z0, u0, u1, dt, theta], [z, ca.horzcat(*cols)],
+                           ["z0", "u0", "u1", "dt", "theta"], ["z1", "zsub"])
+
+    def propagate(self, *, z0, controls, t_nodes, theta, substeps: int = 10) -> tuple[np.ndarray, np.ndarray]:
+        """Propagate along given node controls (nu, N+1) at node times (N+1,).
+
+        Returns ``(Z, Zsub)``: the packed state at the nodes (nz, N+1) and at every
+        substep end (nz, N*substeps).  The interval function is mapped over nodes
+        one interval at a time (the recursion is sequential), so this is for guesses
+        and checks, not for the NLP.
+        """
+        F = self.interval(substeps)
+        controls = np.asarray(controls, float).reshape(self.nu, -1)
+        t_nodes = np.asarray(t_nodes, float)
+        n = t_nodes.size - 1
+        Z = np.zeros((self.layout.nz, n + 1))
+        Zs = np.zeros((self.layout.nz, n * substeps))
+        Z[:, 0] = np.asarray(z0, float)
+        for k in range(n):
+            z1, zs = F(Z[:, k], controls[:, k], controls[:, k + 1], t_nodes[k + 1] - t_nodes[k], theta)
+            Z[:, k + 1] = np.asarray(z1).ravel()
+            Zs[:, k * substeps:(k + 1) * substeps] = np.asarray(zs)
+        return Z, Zs
+
+    # -- outputs --------------------------------------------------------------------
+    def output_moments(self, c: ca.Function, *, name: str = "moments") -> ca.Function:
+        """First-order mean and variance of an output ``c(x, u, s)`` (scalar or vector).
+
+        ``(z, u, theta) -> (mu[nc], var[nc])`` with ``var_i = g_i P g_i^T`` and
+        ``g_i = dc_i/d[x; s]`` at the mean: what a robust constraint needs without
+        any square root.
+        """
+        nx, ns, L = self.nx, self.ns, self.layout
+        z = ca.SX.sym("z", L.nz)
+        u = ca.SX.sym("u", self.nu)
+        theta = ca.SX.sym("theta", self.n_theta)
+        m = z[:nx]
+        P_xx = _sym_from_triu(z[nx:nx + L.n_pxx], nx)
+        P_xs = ca.reshape(z[nx + L.n_pxx:], nx, ns)
+        mu_s = theta[:ns]
+        P_ss = ca.reshape(theta[ns:], ns, ns)
+        P = ca.blockcat([[P_xx, P_xs], [P_xs.T, P_ss]])
+        xs = ca.SX.sym("x", nx)
+        ss = ca.SX.sym("s", ns)
+        cx = c(xs, u, ss)
+        G = ca.Function("G", [xs, u, ss], [cx, ca.jacobian(cx, ca.vertcat(xs, ss))])
+        mu, J = G(m, u, mu_s)
+        var = ca.sum2(ca.mtimes(J, P) * J)
+        return ca.Function(name, [z, u, theta], [mu, var], ["z", "u", "theta"], ["mu", "var"])
