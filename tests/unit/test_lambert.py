@@ -1,0 +1,113 @@
+"""Lambert solver: textbook answers, landing on r2 after propagation, branches."""
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from solvers.astro.kepler import propagate
+from solvers.astro.lambert import lambert
+
+MU_KM = 398600.0
+MU = 398600.4418e9
+
+
+def _lands_on_r2(mu, r1, r2, tof, sol):
+    r, v = propagate(mu, r1, sol.v1, tof)
+    scale = np.linalg.norm(np.atleast_2d(r2), axis=1)
+    miss = np.linalg.norm(np.atleast_2d(r - r2), axis=1) / scale
+    # and the arrival velocity is the propagated one
+    vmiss = np.linalg.norm(np.atleast_2d(v - sol.v2), axis=1) / np.linalg.norm(np.atleast_2d(sol.v2), axis=1)
+    return miss, vmiss
+
+
+def test_curtis_example_5_2():
+    # Curtis, Orbital Mechanics for Engineering Students, example 5.2 (km, s)
+    sol = lambert(MU_KM, [5000.0, 10000.0, 2100.0], [-14600.0, 2500.0, 7000.0], 3600.0)
+    assert sol.converged
+    assert sol.v1.shape == (3,)
+    np.testing.assert_allclose(sol.v1, [-5.9925, 1.9254, 3.2456], atol=1e-4)
+    np.testing.assert_allclose(sol.v2, [-3.3125, -4.1966, -0.38529], atol=1e-4)
+
+
+def test_vallado_example_7_5():
+    # Vallado 4th ed. example 7-5 (km, s): short way, tof 76 min
+    r1 = [15945.34, 0.0, 0.0]
+    r2 = [12214.83899, 10249.46731, 0.0]
+    sol = lambert(MU_KM, r1, r2, 76.0 * 60.0)
+    assert sol.converged
+    np.testing.assert_allclose(sol.v1, [2.058913, 2.915965, 0.0], atol=2e-5)
+    np.testing.assert_allclose(sol.v2, [-3.451565, 0.910315, 0.0], atol=2e-5)
+
+
+def test_batch_lands_on_r2_and_keeps_shape():
+    rng = np.random.default_rng(1)
+    n = 200
+    r1 = rng.normal(size=(n, 3)) * 8000e3
+    r2 = rng.normal(size=(n, 3)) * 12000e3
+    tof = rng.uniform(600.0, 40000.0, n)
+    for prograde in (True, False):
+        sol = lambert(MU, r1, r2, tof, prograde=prograde)
+        assert sol.v1.shape == (n, 3) and sol.converged.shape == (n,)
+        assert sol.converged.all()
+        miss, vmiss = _lands_on_r2(MU, r1, r2, tof, sol)
+        assert miss.max() < 1e-6 and vmiss.max() < 1e-6
+        h_z = np.cross(r1, sol.v1)[:, 2]
+        assert (h_z > 0).all() if prograde else (h_z < 0).all()
+
+
+def test_multi_revolution_branches_and_infeasible():
+    r1 = np.array([7000e3, 0.0, 0.0])
+    r2 = np.array([0.0, 8000e3, 500e3])
+    tofs = np.array([2000.0, 20000.0, 60000.0])
+    low = lambert(MU, r1, r2, tofs, revolutions=1, low_path=True)
+    high = lambert(MU, r1, r2, tofs, revolutions=1, low_path=False)
+    # 2000 s is shorter than any one-revolution transfer between these radii
+    assert not low.converged[0] and not high.converged[0]
+    assert np.isnan(low.v1[0]).all()
+    assert low.converged[1:].all() and high.converged[1:].all()
+    assert np.linalg.norm(low.v1[1:] - high.v1[1:], axis=1).min() > 10.0  # two distinct solutions
+    for sol in (low, high):
+        miss, vmiss = _lands_on_r2(MU, np.broadcast_to(r1, (2, 3)), r2, tofs[1:],
+                                   type(sol)(sol.v1[1:], sol.v2[1:], sol.converged[1:], sol.iterations[1:]))
+        assert miss.max() < 1e-6 and vmiss.max() < 1e-6
+    # each solution makes exactly one full revolution before arriving: its period is below tof
+    for sol in (low, high):
+        v = sol.v1[1:]
+        a = 1.0 / (2.0 / np.linalg.norm(r1) - np.einsum("ij,ij->i", v, v) / MU)
+        period = 2 * np.pi * np.sqrt(a ** 3 / MU)
+        assert (period < tofs[1:]).all() and (2 * period > tofs[1:]).all()
+
+
+def test_collinear_and_bad_input_are_not_converged():
+    r1 = np.array([[7000e3, 0.0, 0.0], [7000e3, 0.0, 0.0]])
+    r2 = np.array([[-9000e3, 0.0, 0.0], [0.0, 9000e3, 0.0]])
+    sol = lambert(MU, r1, r2, np.array([5000.0, -1.0]))
+    assert not sol.converged.any()
+    assert np.isnan(sol.v1).all()
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    r1n=st.floats(6500e3, 50000e3), r2n=st.floats(6500e3, 50000e3),
+    theta=st.floats(0.05, 2 * np.pi - 0.05), inc=st.floats(0.0, np.pi),
+    tof_scale=st.floats(0.05, 5.0), prograde=st.booleans(), revs=st.integers(0, 3),
+    low=st.booleans(),
+)
+def test_property_solution_lands_on_r2(r1n, r2n, theta, inc, tof_scale, prograde, revs, low):
+    r1 = np.array([r1n, 0.0, 0.0])
+    r2 = r2n * np.array([np.cos(theta), np.sin(theta) * np.cos(inc), np.sin(theta) * np.sin(inc)])
+    # time unit: a circular orbit period at the mean radius, times (revs + scale)
+    t_unit = 2 * np.pi * np.sqrt((0.5 * (r1n + r2n)) ** 3 / MU)
+    tof = t_unit * (revs + tof_scale)
+    sol = lambert(MU, r1, r2, tof, revolutions=revs, prograde=prograde, low_path=low)
+    if revs == 0:
+        assert sol.converged
+    if not sol.converged:
+        assert np.isnan(sol.v1).all()
+        return
+    assert sol.iterations <= 15
+    r, v = propagate(MU, r1, sol.v1, tof)
+    assert np.linalg.norm(r - r2) / r2n < 1e-6
+    assert np.linalg.norm(v - sol.v2) / np.linalg.norm(sol.v2) < 1e-6
+    h_z = np.cross(r1, sol.v1)[2]
+    if abs(np.cross(r1, r2)[2]) > 1e-3 * r1n * r2n:
+        assert (h_z > 0) == prograde
