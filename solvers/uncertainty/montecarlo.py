@@ -1,0 +1,252 @@
+"""Monte Carlo validation of open-loop controls under constant uncertain parameters, in mergeable chunks.
+
+Paper 001 validates its deterministic and robust designs with 10,000 runs of the
+open-loop controls through the dynamics with sampled aerodynamic errors.  Here
+all samples of a chunk are integrated together: the state is an (nx, N) array
+and one classical RK4 step advances every sample (a Python loop over samples
+would be 100x slower; see ``benchmarks/robust.py``).  Controls are linear
+between the NLP nodes, as in the multiple-shooting transcription (paper 000).
+
+Scale-out: :func:`simulate_chunk` is a pure function of a JSON-serializable
+spec, a seed and a sample range; it returns mergeable partial statistics
+(counts, and per quantity ``n, mean, M2`` combined with Chan et al.'s parallel
+update).  Sample ``i`` always draws from the same random stream (block
+``i // BLOCK`` of a :class:`numpy.random.SeedSequence`), so any split of the
+sample range over workers gives the statistics of one process.
+:func:`merge_chunks` folds a list of partials into the summary.
+
+Dynamics are named in the spec (``"model"``), resolved through a registry of
+factories so a worker in another process can rebuild them from the name and
+``model_params``.
+"""
+from __future__ import annotations
+
+import importlib
+import math
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+BLOCK = 256
+"""Samples per random block: the granularity of the per-sample stream (not of the chunks)."""
+
+ArrayFn = Callable[..., np.ndarray]
+
+
+@dataclass
+class PathConstraint:
+    """``fn(x, u, s) <= limit`` sample-wise; ``fn`` returns shape (N,)."""
+
+    fn: ArrayFn
+    limit: float
+
+
+@dataclass
+class MCModel:
+    """What the Monte Carlo needs to know about a system (numpy, SI, radians).
+
+    ``rhs(x, u, s)``: x (nx, N), u (nu, N), s (ns, N) -> (nx, N).
+    ``terminal(x)``: dict of named terminal quantities, each (N,).
+    """
+
+    nx: int
+    nu: int
+    ns: int
+    rhs: ArrayFn
+    terminal: Callable[[np.ndarray], dict[str, np.ndarray]]
+    path: dict[str, PathConstraint] = field(default_factory=dict)
+
+
+_REGISTRY: dict[str, Callable[[dict], MCModel]] = {}
+_LAZY = {
+    # Resolved on first use so that importing this module stays cheap and a worker
+    # needs nothing but the name.
+    "shuttle_reentry": "solvers.robust_reentry:monte_carlo_model",
+}
+
+
+def register_model(name: str, factory: Callable[[dict], MCModel]) -> None:
+    """Make ``factory(model_params) -> MCModel`` available under ``name``."""
+    _REGISTRY[name] = factory
+
+
+def resolve_model(name: str, params: dict | None = None) -> MCModel:
+    if name not in _REGISTRY:
+        if name not in _LAZY:
+            raise KeyError(f"unknown Monte Carlo model {name!r}")
+        mod, attr = _LAZY[name].split(":")
+        _REGISTRY[name] = getattr(importlib.import_module(mod), attr)
+    return _REGISTRY[name](params or {})
+
+
+# -- random streams -----------------------------------------------------------------
+def _sqrt_cov(cov) -> np.ndarray:
+    """A square root of a PSD covariance (eigen, so singular covariances are fine)."""
+    cov = np.atleast_2d(np.asarray(cov, float))
+    w, V = np.linalg.eigh(0.5 * (cov + cov.T))
+    return V * np.sqrt(np.maximum(w, 0.0))
+
+
+def standard_normals(seed: int, start: int, count: int, dim: int) -> np.ndarray:
+    """Standard normals (dim, count) for samples ``start .. start+count-1``, independent of chunking."""
+    out = np.empty((dim, count))
+    if count == 0:
+        return out
+    first, last = start // BLOCK, (start + count - 1) // BLOCK
+    ss = np.random.SeedSequence(seed)
+    pos = 0
+    for b in range(first, last + 1):
+        rng = np.random.default_rng(np.random.SeedSequence(ss.entropy, spawn_key=(b,)))
+        block = rng.standard_normal((BLOCK, dim))
+        lo = max(start, b * BLOCK) - b * BLOCK
+        hi = min(start + count, (b + 1) * BLOCK) - b * BLOCK
+        out[:, pos:pos + hi - lo] = block[lo:hi].T
+        pos += hi - lo
+    return out
+
+
+def draw_samples(spec: dict, seed: int, start: int, count: int, *, nx: int, ns: int):
+    """Initial states (nx, count) and parameters (ns, count) of samples ``start..``."""
+    z = standard_normals(seed, start, count, nx + ns)
+    x0 = np.asarray(spec["x0_mean"], float)[:, None] + np.zeros((nx, count))
+    if spec.get("x0_cov") is not None:
+        x0 = x0 + _sqrt_cov(spec["x0_cov"]) @ z[:nx]
+    s = np.asarray(spec["s_mean"], float)[:, None] + _sqrt_cov(spec["s_cov"]) @ z[nx:]
+    return x0, s
+
+
+# -- integration ----------------------------------------------------------------------
+def propagate(model: MCModel, *, x0, s, t_nodes, controls, substeps: int,
+              on_step: Callable[[int, int, np.ndarray, np.ndarray], None] | None = None) -> np.ndarray:
+    """RK4 of all samples along node controls (nu, n+1), linear in between.
+
+    ``on_step(k, j, x, u)`` sees the state after substep ``j`` (1..substeps) of interval
+    ``k`` with the control there, and ``j = 0, k = 0`` for the initial state.
+    """
+    t_nodes = np.asarray(t_nodes, float)
+    U = np.asarray(controls, float).reshape(model.nu, -1)
+    x = np.array(x0, float, copy=True)
+    n_s = x.shape[1]
+    if on_step is not None:
+        on_step(0, 0, x, np.repeat(U[:, :1], n_s, axis=1))
+    for k in range(t_nodes.size - 1):
+        h = (t_nodes[k + 1] - t_nodes[k]) / substeps
+        du = U[:, k + 1] - U[:, k]
+        for j in range(substeps):
+            ua = (U[:, k] + (j / substeps) * du)[:, None]
+            ub = (U[:, k] + ((j + 0.5) / substeps) * du)[:, None]
+            uc = (U[:, k] + ((j + 1) / substeps) * du)[:, None]
+            k1 = model.rhs(x, ua, s)
+            k2 = model.rhs(x + 0.5 * h * k1, ub, s)
+            k3 = model.rhs(x + 0.5 * h * k2, ub, s)
+            k4 = model.rhs(x + h * k3, uc, s)
+            x = x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+            if on_step is not None:
+                on_step(k, j + 1, x, np.broadcast_to(uc, (model.nu, n_s)))
+    return x
+
+
+# -- chunks ---------------------------------------------------------------------------
+def _moments(v: np.ndarray) -> dict:
+    n = int(v.size)
+    if n == 0:
+        return {"n": 0, "mean": 0.0, "m2": 0.0}
+    mean = float(np.mean(v))
+    return {"n": n, "mean": mean, "m2": float(np.sum((v - mean) ** 2))}
+
+
+def _merge_moments(a: dict, b: dict) -> dict:
+    n = a["n"] + b["n"]
+    if n == 0:
+        return {"n": 0, "mean": 0.0, "m2": 0.0}
+    d = b["mean"] - a["mean"]
+    mean = a["mean"] + d * b["n"] / n
+    m2 = a["m2"] + b["m2"] + d * d * a["n"] * b["n"] / n
+    return {"n": n, "mean": mean, "m2": m2}
+
+
+def simulate_chunk(spec: dict, seed: int, start_index: int, count: int) -> dict:
+    """Simulate samples ``start_index .. start_index+count-1`` and return mergeable partial statistics.
+
+    ``spec`` (JSON-serializable): ``model``, ``model_params``, ``t_nodes`` (n+1),
+    ``controls`` (nu lists of n+1), ``x0_mean``, ``x0_cov`` (or null), ``s_mean``,
+    ``s_cov``, ``substeps`` (RK4 steps per interval, also the fine check grid),
+    ``required`` ({quantity: value}) and ``bands`` ({quantity: {band: half width}})
+    for the "within required value +- band" counts.
+    """
+    model = resolve_model(spec["model"], spec.get("model_params"))
+    x0, s = draw_samples(spec, seed, start_index, count, nx=model.nx, ns=model.ns)
+    substeps = int(spec.get("substeps", 10))
+    names = list(model.path)
+    worst_fine = {nm: np.full(count, -np.inf) for nm in names}
+    worst_node = {nm: np.full(count, -np.inf) for nm in names}
+
+    def on_step(k, j, x, u):
+        for nm in names:
+            c = model.path[nm].fn(x, u, s)
+            c = np.where(np.isfinite(c), c, np.inf)
+            np.maximum(worst_fine[nm], c, out=worst_fine[nm])
+            if j == 0 or j == substeps:
+                np.maximum(worst_node[nm], c, out=worst_node[nm])
+
+    with np.errstate(all="ignore"):
+        xf = propagate(model, x0=x0, s=s, t_nodes=spec["t_nodes"], controls=spec["controls"],
+                       substeps=substeps, on_step=on_step)
+        term = model.terminal(xf)
+    ok = np.all(np.isfinite(xf), axis=0)
+    out: dict = {"count": int(count), "failed": int(count - ok.sum()), "terminal": {}, "within": {},
+                 "path": {}}
+    required = spec.get("required", {})
+    bands = spec.get("bands", {})
+    for q, v in term.items():
+        v = np.asarray(v, float)
+        out["terminal"][q] = _moments(v[ok])
+        if q in required:
+            dev = np.abs(v - float(required[q]))
+            out["within"][q] = {b: int(np.sum(ok & (dev <= float(w)))) for b, w in bands.get(q, {}).items()}
+    for nm in names:
+        lim = model.path[nm].limit
+        out["path"][nm] = {
+            "kept_fine": int(np.sum(ok & (worst_fine[nm] <= lim))),
+            "kept_nodes": int(np.sum(ok & (worst_node[nm] <= lim))),
+            "worst": float(np.max(worst_fine[nm], initial=-np.inf)) if count else None,
+            "limit": float(lim),
+        }
+    return out
+
+
+def merge_chunks(chunks: list[dict]) -> dict:
+    """Fold partials of :func:`simulate_chunk` into fractions, means and standard deviations."""
+    if not chunks:
+        raise ValueError("merge_chunks needs at least one chunk")
+    n = sum(c["count"] for c in chunks)
+    failed = sum(c["failed"] for c in chunks)
+    terminal: dict = {}
+    for c in chunks:
+        for q, mom in c["terminal"].items():
+            terminal[q] = _merge_moments(terminal[q], mom) if q in terminal else dict(mom)
+    summary: dict = {"samples": int(n), "failed_samples": int(failed), "terminal": {}, "within": {}, "path": {}}
+    for q, mom in terminal.items():
+        std = math.sqrt(mom["m2"] / (mom["n"] - 1)) if mom["n"] > 1 else 0.0
+        summary["terminal"][q] = {"mean": float(mom["mean"]), "std": float(std)}
+    for q in chunks[0]["within"]:
+        summary["within"][q] = {b: sum(c["within"][q][b] for c in chunks) / n for b in chunks[0]["within"][q]}
+    for nm in chunks[0]["path"]:
+        worst = [c["path"][nm]["worst"] for c in chunks if c["path"][nm]["worst"] is not None]
+        w = max(worst) if worst else None
+        summary["path"][nm] = {
+            "kept_fraction": sum(c["path"][nm]["kept_fine"] for c in chunks) / n,
+            "kept_fraction_nodes": sum(c["path"][nm]["kept_nodes"] for c in chunks) / n,
+            "worst": float(w) if w is not None and math.isfinite(w) else None,
+            "limit": chunks[0]["path"][nm]["limit"],
+        }
+    return summary
+
+
+def run_monte_carlo(spec: dict, samples: int, seed: int, chunk_size: int | None = None) -> dict:
+    """In-process fan-out: the same chunks a distributed run would make, merged."""
+    chunk_size = int(chunk_size or samples)
+    chunks = [simulate_chunk(spec, seed, a, min(chunk_size, samples - a))
+              for a in range(0, samples, chunk_size)]
+    return merge_chunks(chunks)
