@@ -1,0 +1,230 @@
+"""Job persistence: every state change of a job is one short write transaction here.
+
+The API and the worker share these functions, so the rules of the life cycle
+live in one place:
+
+* a job row is committed before its message is published (``create_job``);
+* ``attempts`` is a delivery token: a message carries the attempt it was
+  published for, and only the delivery holding the current token may claim,
+  report on or finish the job, so a stale or duplicated message is harmless;
+* a job whose worker died is re-queued by bumping the token (``reap_stale`` and
+  ``claim``), at most ``max_attempts`` times, then fails with ``worker_lost``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from datetime import datetime, timedelta, timezone
+
+from sqlalchemy import func, select, update
+
+from app.db import Database
+from app.models import FINAL_STATUSES, Job, JobResult, utcnow
+
+
+def _iso(dt: datetime | None) -> str | None:
+    if dt is None:
+        return None
+    if dt.tzinfo is None:  # SQLite returns naive datetimes; every stored time is UTC
+        dt = dt.replace(tzinfo=timezone.utc)
+    return dt.isoformat()
+
+
+def job_to_dict(job: Job) -> dict:
+    return {
+        "id": job.id,
+        "kind": job.kind,
+        "label": job.label,
+        "preset": job.preset,
+        "status": job.status,
+        "progress": job.progress,
+        "message": job.message,
+        "created_at": _iso(job.created_at),
+        "started_at": _iso(job.started_at),
+        "finished_at": _iso(job.finished_at),
+        "params": job.params,
+        "error": job.error,
+        "attempts": job.attempts,
+    }
+
+
+class IdempotencyConflict(Exception):
+    """The Idempotency-Key was used before for a different request."""
+
+
+def create_job(db: Database, *, kind: str, params: dict, label: str | None, preset: str | None,
+               idempotency_key: str | None = None, request_hash: str | None = None) -> tuple[Job, bool]:
+    """Insert a queued job (attempt 1). Returns ``(job, created)``; an identical
+    request with a known ``idempotency_key`` returns the existing job."""
+    with db.write() as s:
+        if idempotency_key is not None:
+            existing = s.scalar(select(Job).where(Job.idempotency_key == idempotency_key))
+            if existing is not None:
+                if existing.request_hash != request_hash:
+                    raise IdempotencyConflict(idempotency_key)
+                return existing, False
+        job = Job(kind=kind, params=params, label=label, preset=preset, status="queued",
+                  progress=0.0, message="queued", attempts=1, cancel_requested=False,
+                  idempotency_key=idempotency_key, request_hash=request_hash, created_at=utcnow())
+        s.add(job)
+    return job, True
+
+
+def list_jobs(db: Database, *, kind: str | None, status: str | None, limit: int, offset: int) -> tuple[list[Job], int]:
+    with db.read() as s:
+        q = select(Job)
+        cq = select(func.count()).select_from(Job)
+        if kind:
+            q, cq = q.where(Job.kind == kind), cq.where(Job.kind == kind)
+        if status:
+            q, cq = q.where(Job.status == status), cq.where(Job.status == status)
+        items = list(s.scalars(q.order_by(Job.created_at.desc(), Job.id.desc()).limit(limit).offset(offset)))
+        total = int(s.scalar(cq) or 0)
+    return items, total
+
+
+def get_job(db: Database, job_id: str) -> Job | None:
+    with db.read() as s:
+        return s.get(Job, job_id)
+
+
+def get_result(db: Database, job_id: str) -> dict | None:
+    with db.read() as s:
+        row = s.get(JobResult, job_id)
+        return None if row is None else row.data
+
+
+def queued_jobs(db: Database) -> list[Job]:
+    with db.read() as s:
+        return list(s.scalars(select(Job).where(Job.status == "queued").order_by(Job.created_at)))
+
+
+def request_cancel(db: Database, job_id: str) -> Job | None:
+    """A queued job is cancelled at once (it will never start); a running one gets
+    the flag its solver polls; a finished one is left as it is."""
+    with db.write() as s:
+        job = s.get(Job, job_id)
+        if job is None:
+            return None
+        if job.status == "queued":
+            job.status = "cancelled"
+            job.cancel_requested = True
+            job.finished_at = utcnow()
+            job.message = "cancelled before it started"
+            job.error = {"code": "cancelled", "message": "cancelled by request before it started"}
+        elif job.status == "running":
+            job.cancel_requested = True
+            job.message = "cancellation requested"
+    return job
+
+
+def mark_publish_failed(db: Database, job_id: str, reason: str) -> None:
+    with db.write() as s:
+        s.execute(update(Job).where(Job.id == job_id, Job.status == "queued").values(
+            status="failed", finished_at=utcnow(), message="broker unreachable",
+            error={"code": "internal", "message": f"could not queue the job: {reason}"}))
+
+
+@dataclass
+class Claim:
+    job_id: str
+    kind: str
+    params: dict
+    attempt: int
+
+
+def claim(db: Database, job_id: str, attempt: int, *, worker: str, max_attempts: int) -> Claim | None:
+    """Move a job to ``running`` for the delivery holding token ``attempt``.
+
+    A delivery for the current token of a job that is already ``running`` is a
+    redelivery after its worker was lost (acks_late + reject_on_worker_lost): it
+    takes the job over with a new token, up to ``max_attempts``.
+    Returns None when this delivery must not run the job.
+    """
+    with db.write() as s:
+        job = s.get(Job, job_id)
+        if job is None or job.status in FINAL_STATUSES or job.attempts != attempt:
+            return None
+        if job.cancel_requested:
+            _finish(job, "cancelled", error={"code": "cancelled", "message": "cancelled by request"},
+                    message="cancelled")
+            return None
+        if job.status == "running":
+            if job.attempts >= max_attempts:
+                _fail_worker_lost(job, max_attempts)
+                return None
+            job.attempts += 1
+        now = utcnow()
+        job.status = "running"
+        job.started_at = job.started_at or now
+        job.heartbeat_at = now
+        job.worker = worker
+        job.message = f"started on {worker} (attempt {job.attempts})"
+        return Claim(job.id, job.kind, dict(job.params), job.attempts)
+
+
+def heartbeat(db: Database, job_id: str, attempt: int, *, progress: float | None, message: str | None) -> bool | None:
+    """Write heartbeat (and progress) for the current token; returns the cancel
+    flag, or None if this delivery no longer owns the job."""
+    with db.write() as s:
+        job = s.get(Job, job_id)
+        if job is None or job.status != "running" or job.attempts != attempt:
+            return None
+        job.heartbeat_at = utcnow()
+        if progress is not None and progress > job.progress:  # progress only grows
+            job.progress = min(float(progress), 1.0)
+        if message is not None:
+            job.message = message[:2000]
+        return bool(job.cancel_requested)
+
+
+def _finish(job: Job, status: str, *, error: dict | None, message: str) -> None:
+    job.status = status
+    job.error = error
+    job.message = message
+    job.finished_at = utcnow()
+    if status == "succeeded":
+        job.progress = 1.0
+
+
+def _fail_worker_lost(job: Job, max_attempts: int) -> None:
+    _finish(job, "failed", message="worker lost", error={
+        "code": "worker_lost",
+        "message": f"the worker running this job died {max_attempts} times "
+                   f"(killed, out of memory or crashed); giving up after {max_attempts} attempts"})
+
+
+def finish(db: Database, job_id: str, attempt: int, *, status: str, result: dict | None,
+           error: dict | None, message: str) -> bool:
+    """Store the outcome (result first, in the same transaction) for the current token."""
+    with db.write() as s:
+        job = s.get(Job, job_id)
+        if job is None or job.status != "running" or job.attempts != attempt:
+            return False
+        if result is not None:
+            row = s.get(JobResult, job_id)
+            if row is None:
+                s.add(JobResult(job_id=job_id, data=result, created_at=utcnow()))
+            else:
+                row.data = result
+        _finish(job, status, error=error, message=message)
+        return True
+
+
+def reap_stale(db: Database, *, stale_after_s: float, max_attempts: int) -> list[tuple[str, int, str]]:
+    """Re-queue running jobs whose heartbeat is older than ``stale_after_s``.
+
+    Returns ``(job_id, attempt, kind)`` to publish; jobs out of attempts fail.
+    """
+    cutoff = utcnow() - timedelta(seconds=stale_after_s)
+    requeue: list[tuple[str, int, str]] = []
+    with db.write() as s:
+        stale = list(s.scalars(select(Job).where(Job.status == "running", Job.heartbeat_at < cutoff)))
+        for job in stale:
+            if job.attempts >= max_attempts:
+                _fail_worker_lost(job, max_attempts)
+                continue
+            job.attempts += 1
+            job.status = "queued"
+            job.message = f"re-queued: worker heartbeat lost (attempt {job.attempts}/{max_attempts})"
+            requeue.append((job.id, job.attempts, job.kind))
+    return requeue

@@ -1,0 +1,32 @@
+"""FastAPI application factory."""
+from __future__ import annotations
+
+from fastapi import FastAPI
+
+from app.db import get_database
+from app.settings import Settings, get_settings
+
+DESCRIPTION = """
+Trajectory optimization as a job service. Submit a job (`POST /v1/jobs`) with a
+`kind` and a named `preset` and/or `params`; poll `GET /v1/jobs/{id}` for
+`status`, `progress` and `message`; fetch `GET /v1/jobs/{id}/result`.
+
+Units: SI everywhere (m, m/s, s, kg, N, W/m^2, J/m^2), angles in degrees; field
+names carry the unit (`altitude_m`, `flight_path_deg`, `tf_s`).
+"""
+
+
+def create_app(settings: Settings | None = None) -> FastAPI:
+    from app.routes import health, jobs, lambert, presets  # after settings: routes read the registry
+    from worker.celery_app import create_celery
+
+    settings = settings or get_settings()
+    app = FastAPI(title="trajlab", version="0.1.0", description=DESCRIPTION)
+    app.state.settings = settings
+    app.state.db = get_database(settings.database_url)
+    app.state.celery = create_celery(settings)
+    app.include_router(jobs.router)
+    app.include_router(presets.router)
+    app.include_router(lambert.router)
+    app.include_router(health.router)
+    return app

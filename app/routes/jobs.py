@@ -1,0 +1,107 @@
+"""/v1/jobs: submit, list, get, result, cancel."""
+from __future__ import annotations
+
+import hashlib
+import json
+from typing import Annotated
+
+from fastapi import APIRouter, Body, Header, HTTPException, Query, Response
+from fastapi.responses import JSONResponse
+
+from app import jobs
+from app.deps import CeleryDep, DatabaseDep, SettingsDep
+from app.kinds import KINDS, PRESETS
+from app.params import resolve_params
+from app.schemas import JobList, JobOut, JobStatus, JobSubmission
+from worker.celery_app import publish_job
+
+router = APIRouter(prefix="/v1/jobs", tags=["jobs"])
+
+
+def _not_found(job_id: str) -> HTTPException:
+    return HTTPException(status_code=404, detail=f"job {job_id} not found")
+
+
+@router.post("", status_code=202, response_model=JobOut,
+             responses={202: {"description": "Accepted: the job is queued; `Location` points at it"},
+                        422: {"description": "Invalid parameters (the message names the field and the rule), "
+                                              "or an Idempotency-Key reused for a different request"},
+                        503: {"description": "The broker could not be reached; the job is stored as failed"}})
+def submit_job(
+    submission: Annotated[JobSubmission, Body(openapi_examples={
+        "preset": {"summary": "Run a paper case", "value": {"kind": "intercept", "preset": "long-range-intercept"}},
+        "override": {"summary": "A preset with overrides",
+                     "value": {"kind": "reentry", "preset": "betts-max-crossrange", "params": {"grid": {"intervals": 50}}}},
+    })],
+    response: Response, db: DatabaseDep, settings: SettingsDep, celery: CeleryDep,
+    idempotency_key: Annotated[str | None, Header(max_length=200, description="Repeat a submission safely: the same key and body return the same job")] = None,
+):
+    spec = KINDS[submission.kind]
+    overrides = submission.params.model_dump(exclude_unset=True) if submission.params is not None else None
+    preset_params = PRESETS[submission.preset].params if submission.preset else None
+    params = resolve_params(spec, preset_params, overrides)
+    request_hash = None
+    if idempotency_key is not None:
+        body = submission.model_dump(mode="json", exclude_unset=True)
+        request_hash = hashlib.sha256(json.dumps(body, sort_keys=True).encode()).hexdigest()
+    try:
+        job, created = jobs.create_job(db, kind=submission.kind, params=params, label=submission.label,
+                                       preset=submission.preset, idempotency_key=idempotency_key,
+                                       request_hash=request_hash)
+    except jobs.IdempotencyConflict:
+        # draft-ietf-httpapi-idempotency-key-header: reuse with another payload is a 422.
+        raise HTTPException(status_code=422, detail="Idempotency-Key was already used for a different request body")
+    if created:
+        try:
+            publish_job(celery, settings, job_id=job.id, attempt=job.attempts, kind=job.kind)
+        except Exception as exc:  # the row stays, marked failed with the reason
+            jobs.mark_publish_failed(db, job.id, f"{type(exc).__name__}: {exc}")
+            raise HTTPException(status_code=503, detail=f"job {job.id} stored but the broker is unreachable: {exc}")
+    response.headers["Location"] = f"/v1/jobs/{job.id}"
+    return jobs.job_to_dict(job)
+
+
+@router.get("", response_model=JobList)
+def list_jobs(
+    db: DatabaseDep,
+    kind: Annotated[str | None, Query(description="Only this kind")] = None,
+    status: Annotated[JobStatus | None, Query(description="Only this status")] = None,
+    limit: Annotated[int, Query(ge=1, le=500)] = 50,
+    offset: Annotated[int, Query(ge=0)] = 0,
+):
+    if kind is not None and kind not in KINDS:
+        raise HTTPException(status_code=422, detail=f"kind must be one of {sorted(KINDS)}")
+    items, total = jobs.list_jobs(db, kind=kind, status=status, limit=limit, offset=offset)
+    return {"items": [jobs.job_to_dict(j) for j in items], "total": total}
+
+
+@router.get("/{job_id}", response_model=JobOut, responses={404: {"description": "Unknown job"}})
+def get_job(job_id: str, db: DatabaseDep):
+    job = jobs.get_job(db, job_id)
+    if job is None:
+        raise _not_found(job_id)
+    return jobs.job_to_dict(job)
+
+
+@router.get("/{job_id}/result", responses={
+    404: {"description": "Unknown job"},
+    409: {"description": "Not succeeded (yet): the body gives the status, the error and any stored diagnostic "
+                         "or partial result (e.g. the Pareto front of a cancelled run)"}})
+def get_result(job_id: str, db: DatabaseDep):
+    job = jobs.get_job(db, job_id)
+    if job is None:
+        raise _not_found(job_id)
+    result = jobs.get_result(db, job_id) if job.status in ("succeeded", "failed", "cancelled") else None
+    if job.status != "succeeded":
+        return JSONResponse(status_code=409, content={
+            "detail": f"job {job_id} is {job.status}; its result is available once it has succeeded",
+            "status": job.status, "error": job.error, "partial_result": result})
+    return result
+
+
+@router.post("/{job_id}/cancel", status_code=202, response_model=JobOut, responses={404: {"description": "Unknown job"}})
+def cancel_job(job_id: str, db: DatabaseDep):
+    job = jobs.request_cancel(db, job_id)
+    if job is None:
+        raise _not_found(job_id)
+    return jobs.job_to_dict(job)

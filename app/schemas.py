@@ -1,0 +1,73 @@
+"""HTTP schemas shared by all kinds: the job document, listings, errors, and the
+submission body as a discriminated union on ``kind`` built from the registry."""
+from __future__ import annotations
+
+from datetime import datetime
+from typing import Annotated, Any, Literal, Optional, Union
+
+from pydantic import BaseModel, Field, create_model
+
+from app.kinds import KINDS
+from app.kinds.base import KindSpec, StrictModel
+
+JobStatus = Literal["queued", "running", "succeeded", "failed", "cancelled"]
+ErrorCode = Literal["infeasible", "not_converged", "time_limit", "worker_lost", "cancelled", "internal"]
+
+
+class JobError(BaseModel):
+    code: ErrorCode
+    message: str = Field(description="Why the job failed: the solver's own status and the worst constraint violation")
+    details: dict[str, Any] | None = Field(default=None, description="Stored diagnostic (solver status, iterations, ...)")
+
+
+class JobOut(BaseModel):
+    id: str
+    kind: str
+    label: str | None
+    preset: str | None
+    status: JobStatus
+    progress: float = Field(description="Fraction in [0, 1]; only grows while the job runs")
+    message: str = Field(description='What the job is doing, e.g. "IPOPT iteration 31", "generation 120/500"')
+    created_at: datetime
+    started_at: datetime | None
+    finished_at: datetime | None
+    params: dict[str, Any] = Field(description="The fully resolved parameters: re-submit them to re-run exactly")
+    error: JobError | None
+    attempts: int = Field(description="Deliveries so far (more than 1 after a worker was lost)")
+
+
+class JobList(BaseModel):
+    items: list[JobOut]
+    total: int
+
+
+class PresetOut(BaseModel):
+    name: str
+    kind: str
+    description: str
+    params: dict[str, Any] = Field(description="The preset's fully resolved parameters")
+
+
+def _submission_model(spec: KindSpec) -> type[BaseModel]:
+    names = tuple(p.name for p in spec.presets)
+    preset_type = Optional[Literal[names]] if names else Optional[str]  # type: ignore[valid-type]
+    title = "".join(part.capitalize() for part in spec.kind.split("_"))
+    return create_model(
+        f"{title}Submission",
+        __base__=StrictModel,
+        __doc__=spec.summary or f"Submit a {spec.kind} job.",
+        kind=(Literal[spec.kind], Field(description="Job kind")),  # type: ignore[valid-type]
+        preset=(preset_type, Field(default=None, description="A named case (GET /v1/presets); `params` override it")),
+        params=(Optional[spec.params_model], Field(
+            default=None, description="Parameters; deep-merged onto the preset's (or the defaults), "
+                                      "only the fields you give override")),
+        label=(Optional[str], Field(default=None, max_length=200, description="Free text to find the job again")),
+    )
+
+
+SUBMISSION_MODELS: dict[str, type[BaseModel]] = {kind: _submission_model(spec) for kind, spec in KINDS.items()}
+
+if len(SUBMISSION_MODELS) > 1:
+    JobSubmission = Annotated[Union[tuple(SUBMISSION_MODELS.values())], Field(discriminator="kind")]  # type: ignore[misc]
+else:
+    JobSubmission = next(iter(SUBMISSION_MODELS.values()))  # type: ignore[misc]

@@ -1,0 +1,68 @@
+"""Service settings, read from ``TRAJLAB_*`` environment variables (pydantic-settings).
+
+The defaults are the embedded single-machine shape (SQLite file under ``var/``,
+a broker URL filled in by ``trajlab serve`` from its embedded Redis); production
+sets ``TRAJLAB_DATABASE_URL`` and ``TRAJLAB_BROKER_URL`` to PostgreSQL and Redis.
+"""
+from __future__ import annotations
+
+from functools import lru_cache
+from pathlib import Path
+
+from pydantic import Field
+from pydantic_settings import BaseSettings, SettingsConfigDict
+
+DEFAULT_DATA_DIR = Path("var")
+
+
+class Settings(BaseSettings):
+    model_config = SettingsConfigDict(env_prefix="TRAJLAB_", env_file=".env", extra="ignore")
+
+    database_url: str = Field(
+        default=f"sqlite:///{DEFAULT_DATA_DIR / 'trajlab.db'}",
+        description="SQLAlchemy URL: sqlite:///path (embedded) or postgresql+psycopg://user@host/db",
+    )
+    broker_url: str = Field(
+        default="redis://127.0.0.1:6379/0",
+        description="Celery broker: redis://host:port/db or redis+socket:///path/redis.socket",
+    )
+    data_dir: Path = Field(default=DEFAULT_DATA_DIR, description="Embedded mode: SQLite file, Redis socket, logs")
+    worker_concurrency: int = Field(default=1, ge=1, description="Solver processes per worker")
+
+    # Per-kind Celery time limits (s). The soft limit raises inside the task so the
+    # job fails with code time_limit and a message; the hard limit kills the child.
+    time_limit_reentry_s: float = 600.0
+    time_limit_robust_reentry_s: float = 1800.0
+    time_limit_midcourse_s: float = 900.0
+    time_limit_intercept_s: float = 600.0
+    hard_time_limit_margin_s: float = 60.0
+
+    # Worker liveness: a running job writes heartbeat_at every heartbeat_interval_s;
+    # the reaper re-queues a running job whose heartbeat is older than stale_after_s.
+    heartbeat_interval_s: float = 2.0
+    stale_after_s: float = 60.0
+    reaper_interval_s: float = 15.0
+    max_attempts: int = Field(default=3, ge=1, description="Deliveries of one job before it fails with worker_lost")
+
+    # Caps that keep one request from exhausting the machine.
+    max_grid_intervals: int = Field(default=1000, description="reentry/robust_reentry grid.intervals cap")
+    lambert_max_problems: int = Field(default=100_000, description="POST /v1/lambert problems per request")
+    monte_carlo_max_samples: int = Field(default=1_000_000)
+    monte_carlo_chunk_samples: int = Field(
+        default=50_000, description="Above this many samples a Monte Carlo is split across workers"
+    )
+    max_population: int = 2000
+    max_generations: int = 5000
+
+    def time_limit_s(self, kind: str) -> float:
+        return float(getattr(self, f"time_limit_{kind}_s"))
+
+    @property
+    def longest_hard_time_limit_s(self) -> float:
+        limits = [self.time_limit_s(k) for k in ("reentry", "robust_reentry", "midcourse", "intercept")]
+        return max(limits) + self.hard_time_limit_margin_s
+
+
+@lru_cache
+def get_settings() -> Settings:
+    return Settings()

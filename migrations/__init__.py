@@ -1,0 +1,1 @@
+"""Alembic migrations for the trajlab database (SQLite and PostgreSQL)."""

@@ -1,0 +1,155 @@
+"""Integration fixtures: real PostgreSQL, real Redis, a real Celery worker process.
+
+``service`` creates a fresh PostgreSQL database and migrates it, flushes a
+dedicated Redis database, starts ``celery worker -B`` as a subprocess with fast
+heartbeat/reaper settings, and serves the app through TestClient.  If PostgreSQL
+or Redis is unreachable the run stops with a message naming it and how to start it.
+"""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+import uuid
+from pathlib import Path
+
+import psycopg
+import pytest
+import redis
+from fastapi.testclient import TestClient
+
+from app.main import create_app
+from app.migrate import upgrade
+from app.settings import Settings
+
+ROOT = Path(__file__).resolve().parents[2]
+PG_ADMIN_URL = os.environ.get("TRAJLAB_TEST_PG_ADMIN", "postgresql://postgres@127.0.0.1:5432/test")
+REDIS_URL = os.environ.get("TRAJLAB_TEST_REDIS", "redis://127.0.0.1:6379/11")
+
+START_HINTS = {
+    "PostgreSQL": "pg_ctlcluster --skip-systemctl-redirect $(ls /etc/postgresql) main start",
+    "Redis": 'redis-server --daemonize yes --bind 127.0.0.1 -::1 --port 6379 --save "" --appendonly no',
+}
+
+
+def _unreachable(name: str, url: str, exc: Exception) -> None:
+    pytest.exit(f"{name} is unreachable at {url} ({type(exc).__name__}: {exc}). "
+                f"Integration tests need a real {name}; start it with: {START_HINTS[name]}", returncode=3)
+
+
+@pytest.fixture(scope="session")
+def pg_url():
+    try:
+        admin = psycopg.connect(PG_ADMIN_URL, autocommit=True, connect_timeout=5)
+    except Exception as exc:
+        _unreachable("PostgreSQL", PG_ADMIN_URL, exc)
+    name = f"trajlab_it_{uuid.uuid4().hex[:10]}"
+    admin.execute(f'CREATE DATABASE "{name}"')
+    base = PG_ADMIN_URL.rsplit("/", 1)[0].replace("postgresql://", "postgresql+psycopg://", 1)
+    yield f"{base}/{name}"
+    admin.execute(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)')
+    admin.close()
+
+
+@pytest.fixture(scope="session")
+def redis_url():
+    try:
+        r = redis.Redis.from_url(REDIS_URL, socket_connect_timeout=5)
+        r.ping()
+    except Exception as exc:
+        _unreachable("Redis", REDIS_URL, exc)
+    r.flushdb()
+    yield REDIS_URL
+    r.flushdb()
+
+
+class Service:
+    """A running trajlab: the app under TestClient and one real worker process."""
+
+    def __init__(self, settings: Settings, env: dict, log_dir: Path):
+        self.settings = settings
+        self.env = env
+        self.log_dir = log_dir
+        self.worker: subprocess.Popen | None = None
+        self.client = TestClient(create_app(settings))
+        self._n = 0
+
+    # --- worker process --------------------------------------------------------------
+    def start_worker(self, concurrency: int = 2) -> None:
+        self._n += 1
+        log = open(self.log_dir / f"worker-{self._n}.log", "wb")
+        cmd = [sys.executable, "-m", "celery", "-A", "worker.celery_app:celery_app", "worker", "-B",
+               "--loglevel=INFO", f"--concurrency={concurrency}", "-n", f"it{self._n}-{uuid.uuid4().hex[:6]}@%h",
+               "--schedule", str(self.log_dir / f"beat-{self._n}")]
+        # Own session: kill_worker() can SIGKILL the whole process group, pool children included.
+        self.worker = subprocess.Popen(cmd, cwd=ROOT, env=self.env, stdout=log, stderr=subprocess.STDOUT,
+                                       start_new_session=True)
+
+    def kill_worker(self) -> None:
+        if self.worker is not None and self.worker.poll() is None:
+            os.killpg(self.worker.pid, signal.SIGKILL)
+            self.worker.wait(timeout=30)
+        self.worker = None
+
+    def stop_worker(self) -> None:
+        if self.worker is not None and self.worker.poll() is None:
+            os.killpg(self.worker.pid, signal.SIGTERM)
+            try:
+                self.worker.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                os.killpg(self.worker.pid, signal.SIGKILL)
+                self.worker.wait(timeout=30)
+        self.worker = None
+
+    # --- HTTP helpers ----------------------------------------------------------------
+    def submit(self, kind: str, preset: str | None = None, params: dict | None = None,
+               label: str | None = None, headers: dict | None = None):
+        body: dict = {"kind": kind}
+        if preset is not None:
+            body["preset"] = preset
+        if params is not None:
+            body["params"] = params
+        if label is not None:
+            body["label"] = label
+        return self.client.post("/v1/jobs", json=body, headers=headers or {})
+
+    def wait(self, job_id: str, timeout: float = 120, until=("succeeded", "failed", "cancelled")) -> dict:
+        deadline = time.monotonic() + timeout
+        while True:
+            job = self.client.get(f"/v1/jobs/{job_id}").json()
+            if job["status"] in until:
+                return job
+            if time.monotonic() > deadline:
+                raise AssertionError(f"job {job_id} still {job['status']} after {timeout} s: {job['message']}; "
+                                     f"worker logs in {self.log_dir}")
+            time.sleep(0.2)
+
+    def result(self, job_id: str) -> dict:
+        r = self.client.get(f"/v1/jobs/{job_id}/result")
+        assert r.status_code == 200, r.text
+        return r.json()
+
+
+@pytest.fixture(scope="session")
+def service(pg_url, redis_url, tmp_path_factory):
+    upgrade(pg_url)
+    log_dir = tmp_path_factory.mktemp("service")
+    overrides = {
+        "TRAJLAB_DATABASE_URL": pg_url,
+        "TRAJLAB_BROKER_URL": redis_url,
+        "TRAJLAB_HEARTBEAT_INTERVAL_S": "0.5",
+        "TRAJLAB_STALE_AFTER_S": "5",
+        "TRAJLAB_REAPER_INTERVAL_S": "1",
+        "TRAJLAB_MAX_ATTEMPTS": "3",
+        "TRAJLAB_MONTE_CARLO_CHUNK_SAMPLES": "2000",
+    }
+    env = {**os.environ, **overrides, "PYTHONPATH": str(ROOT)}
+    settings = Settings(**{k.removeprefix("TRAJLAB_").lower(): v for k, v in overrides.items()})
+    svc = Service(settings, env, log_dir)
+    svc.start_worker()
+    yield svc
+    svc.stop_worker()
+    svc.client.close()
+    svc.client.app.state.db.dispose()

@@ -1,0 +1,77 @@
+"""The JobContext a running job sees: progress, cancellation, warm-start lookups.
+
+Solvers call ``progress`` and ``should_stop`` from their iteration callbacks,
+which can fire hundreds of times a second; both only touch memory.  A
+background thread does the I/O: every ``heartbeat_interval_s`` it writes the
+heartbeat and the latest progress to the job row and reads back the cancel
+flag.  A job can therefore be cancelled within about one interval, and a solve
+that sits inside a long native call still keeps its heartbeat fresh.
+"""
+from __future__ import annotations
+
+import threading
+import time
+
+from app import jobs
+from app.db import Database
+
+
+class WorkerJobContext:
+    def __init__(self, db: Database, claim: jobs.Claim, *, heartbeat_interval_s: float, deadline_s: float):
+        self.db = db
+        self.job_id = claim.job_id
+        self.attempt = claim.attempt
+        self.interval = heartbeat_interval_s
+        self.deadline = time.monotonic() + deadline_s
+        self._progress = 0.0
+        self._message: str | None = None
+        self.cancel_requested = False
+        self.lost = False
+        self._done = threading.Event()
+        self._thread = threading.Thread(target=self._beat, name=f"heartbeat-{self.job_id}", daemon=True)
+
+    # --- what the kind's run() uses -------------------------------------------------
+    def progress(self, fraction: float, message: str) -> None:
+        self._progress = max(self._progress, min(max(float(fraction), 0.0), 1.0))
+        self._message = message
+
+    def should_stop(self) -> bool:
+        return self.cancel_requested or self.lost or self.deadline_passed
+
+    @property
+    def deadline_passed(self) -> bool:
+        return time.monotonic() > self.deadline
+
+    def load_result(self, job_id: str) -> dict:
+        job = jobs.get_job(self.db, job_id)
+        if job is None:
+            raise LookupError(f"job {job_id} does not exist")
+        if job.status != "succeeded":
+            raise LookupError(f"job {job_id} is {job.status}; only a succeeded job can be used")
+        result = jobs.get_result(self.db, job_id)
+        if result is None:
+            raise LookupError(f"job {job_id} has no stored result")
+        return result
+
+    # --- plumbing ---------------------------------------------------------------------
+    def _write(self) -> None:
+        flag = jobs.heartbeat(self.db, self.job_id, self.attempt, progress=self._progress, message=self._message)
+        if flag is None:
+            self.lost = True  # another delivery took the job over, or it was finished elsewhere
+        else:
+            self.cancel_requested = flag
+
+    def _beat(self) -> None:
+        while not self._done.wait(self.interval):
+            try:
+                self._write()
+            except Exception:  # a transient database error must not kill the solve
+                pass
+
+    def __enter__(self) -> "WorkerJobContext":
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self._done.set()
+        self._thread.join(timeout=10)
