@@ -1,0 +1,133 @@
+"""POST /v1/lambert: synchronous batched Lambert solves (no queue).
+
+Problems are grouped by branch (revolutions, direction, path) so each group is
+one call of the vectorized solver; answers come back in request order.
+"""
+from __future__ import annotations
+
+import math
+from typing import Annotated, Callable
+
+import numpy as np
+from fastapi import APIRouter, Body, Request
+from fastapi.exceptions import RequestValidationError
+from fastapi.routing import APIRoute
+from pydantic import Field, field_validator
+
+from app.kinds.base import StrictModel
+from app.settings import get_settings
+from solvers.astro.lambert import lambert
+
+
+
+def _finite_json(value):
+    """Non-finite floats as strings: a 422 echoing a NaN input must still be valid JSON."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return str(value)
+    if isinstance(value, dict):
+        return {k: _finite_json(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite_json(v) for v in value]
+    return value
+
+
+class _FiniteErrorsRoute(APIRoute):
+    """Python's JSON parser accepts NaN; pydantic rejects it but echoes it in the error,
+    which the default handler cannot serialize (a 500 instead of the 422)."""
+
+    def get_route_handler(self) -> Callable:
+        handler = super().get_route_handler()
+
+        async def route_handler(request: Request):
+            try:
+                return await handler(request)
+            except RequestValidationError as exc:
+                raise RequestValidationError([_finite_json(dict(e)) for e in exc.errors()]) from None
+
+        return route_handler
+
+
+router = APIRouter(prefix="/v1", tags=["lambert"], route_class=_FiniteErrorsRoute)
+
+MU_EARTH_M3_S2 = 398600.4418e9
+
+Vector3 = Annotated[list[float], Field(min_length=3, max_length=3)]
+
+
+class LambertProblem(StrictModel):
+    r1_m: Vector3 = Field(description="Departure position (inertial), m", examples=[[5000e3, 10000e3, 2100e3]])
+    r2_m: Vector3 = Field(description="Arrival position (inertial), m", examples=[[-14600e3, 2500e3, 7000e3]])
+    tof_s: float = Field(gt=0, description="Time of flight, s", examples=[3600.0])
+    revolutions: int = Field(0, ge=0, le=50, description="Full revolutions before arrival", examples=[0])
+    prograde: bool = Field(True, description="Transfer angular momentum with positive z (Izzo/pykep convention)",
+                           examples=[True])
+    low_path: bool = Field(True, description="For revolutions > 0: which of the two solutions "
+                           "(true: the larger Izzo x, as poliastro's lowpath)", examples=[True])
+
+    @field_validator("r1_m", "r2_m")
+    @classmethod
+    def _nonzero(cls, v):
+        if math.hypot(*v) == 0.0:
+            raise ValueError("position must not be the zero vector")
+        return v
+
+
+class LambertRequest(StrictModel):
+    mu_m3_s2: float = Field(MU_EARTH_M3_S2, gt=0, description="Gravitational parameter, m^3/s^2",
+                            examples=[MU_EARTH_M3_S2])
+    problems: list[LambertProblem] = Field(min_length=1, description="The cases to solve (up to the "
+                                           "configured cap, TRAJLAB_LAMBERT_MAX_PROBLEMS)")
+
+
+class LambertAnswer(StrictModel):
+    v1_mps: list[float] | None = Field(description="Departure velocity, m/s; null if no solution")
+    v2_mps: list[float] | None = Field(description="Arrival velocity, m/s; null if no solution")
+    converged: bool = Field(description="False where no solution exists (e.g. a multi-revolution transfer "
+                            "shorter than its minimum time, or r1 and r2 collinear)")
+    iterations: int = Field(description="Householder iterations")
+    revolutions: int
+    prograde: bool
+    low_path: bool
+
+
+class LambertResponse(StrictModel):
+    solutions: list[LambertAnswer]
+
+
+@router.post("/lambert", response_model=LambertResponse,
+             responses={422: {"description": "A bad vector (length != 3, NaN, zero), tof_s <= 0, "
+                                             "or more problems than the configured cap"}})
+def solve_lambert(request: Request, body: Annotated[LambertRequest, Body(openapi_examples={
+    "curtis-5.2": {"summary": "Curtis example 5.2 (in m)", "value": {
+        "mu_m3_s2": 398600e9,
+        "problems": [{"r1_m": [5000e3, 10000e3, 2100e3], "r2_m": [-14600e3, 2500e3, 7000e3], "tof_s": 3600}]}},
+})]) -> LambertResponse:
+    """Solve a batch of Lambert problems (Izzo's algorithm, vectorized)."""
+    settings = getattr(request.app.state, "settings", None) or get_settings()
+    cap = settings.lambert_max_problems
+    if len(body.problems) > cap:
+        raise RequestValidationError([{
+            "loc": ("body", "problems"), "type": "too_long",
+            "msg": f"at most {cap} problems per request (TRAJLAB_LAMBERT_MAX_PROBLEMS), got {len(body.problems)}",
+            "input": None,
+        }])
+    n = len(body.problems)
+    r1 = np.array([p.r1_m for p in body.problems], dtype=float)
+    r2 = np.array([p.r2_m for p in body.problems], dtype=float)
+    tof = np.array([p.tof_s for p in body.problems], dtype=float)
+    keys = [(p.revolutions, p.prograde, p.low_path) for p in body.problems]
+    v1 = np.full((n, 3), np.nan)
+    v2 = np.full((n, 3), np.nan)
+    conv = np.zeros(n, dtype=bool)
+    iters = np.zeros(n, dtype=int)
+    for key in sorted(set(keys)):
+        idx = np.array([k for k, kk in enumerate(keys) if kk == key])
+        sol = lambert(body.mu_m3_s2, r1[idx], r2[idx], tof[idx],
+                      revolutions=key[0], prograde=key[1], low_path=key[2])
+        v1[idx], v2[idx], conv[idx], iters[idx] = sol.v1, sol.v2, sol.converged, sol.iterations
+    return LambertResponse(solutions=[
+        LambertAnswer(v1_mps=v1[k].tolist() if conv[k] else None, v2_mps=v2[k].tolist() if conv[k] else None,
+                      converged=bool(conv[k]), iterations=int(iters[k]), revolutions=keys[k][0],
+                      prograde=keys[k][1], low_path=keys[k][2])
+        for k in range(n)
+    ])

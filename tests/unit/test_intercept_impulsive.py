@@ -1,0 +1,186 @@
+"""Impulsive interception (paper 003, Method II): the Lambert scan and the kind edge."""
+import json
+import math
+
+import numpy as np
+import pytest
+
+from app.kinds.intercept import PRESETS, SPEC, Params, run, to_problem
+from solvers.astro.elements import Elements, elements_to_state, state_to_elements
+from solvers.astro.kepler import propagate
+from solvers.common import Outcome
+from solvers.intercept import InterceptProblem, PorkchopSettings, ScanSettings, fuel_kg, solve, solve_impulsive
+
+D = math.radians
+PAPER = InterceptProblem(
+    interceptor_orbit=Elements(a=16678.137e3, e=0.2, i=D(28.5), raan=0.0, argp=0.0, nu=D(1.54)),
+    target_orbit=Elements(a=6878.137e3, e=0.0, i=D(30.0), raan=0.0, argp=0.0, nu=D(2.05)),
+)
+
+
+class Ctx:
+    job_id = "test"
+
+    def __init__(self, stop_after=None):
+        self.calls = []
+        self.stop_after = stop_after
+
+    def progress(self, fraction, message):
+        self.calls.append((fraction, message))
+
+    def should_stop(self):
+        return self.stop_after is not None and len(self.calls) >= self.stop_after
+
+    def load_result(self, job_id):
+        raise LookupError(job_id)
+
+
+@pytest.fixture(scope="module")
+def paper_solution():
+    return solve_impulsive(PAPER)
+
+
+def test_elements_round_trip():
+    el = Elements(a=np.array([16678.137e3, 7000e3]), e=np.array([0.2, 0.01]), i=np.array([D(28.5), D(98.0)]),
+                  raan=np.array([0.3, 4.0]), argp=np.array([1.0, 2.0]), nu=np.array([D(1.54), 5.0]))
+    r, v = elements_to_state(398600.4418e9, el)
+    back = state_to_elements(398600.4418e9, r, v)
+    for name in ("a", "e", "i", "raan", "argp", "nu"):
+        np.testing.assert_allclose(getattr(back, name), getattr(el, name), rtol=1e-9, atol=1e-9)
+
+
+def test_paper_scenario_minimum(paper_solution):
+    sol = paper_solution
+    assert sol.status.outcome is Outcome.OPTIMAL
+    assert abs(sol.best_delta_v_mps - 2302.48) < 0.01
+    assert abs(sol.best_t_man_s - 3142.5) < 0.5
+    assert sol.best_branch.prograde and sol.best_branch.revolutions == 0
+    assert abs(np.linalg.norm(sol.delta_v_vector_mps) - sol.best_delta_v_mps) < 1e-6
+    # fuel from the rocket equation, g0 = 9.80665 (the paper's 9.8 gives 271.5 kg)
+    assert abs(sol.fuel_kg - 271.4) < 0.05
+    assert abs(fuel_kg(500.0, sol.best_delta_v_mps, 300.0, 9.8) - 271.52) < 0.05
+    # the burn really reaches the target: independent re-propagation misses by < 1 mm
+    assert sol.miss_distance_m < 1e-3
+
+
+def test_scan_is_the_grid_and_refinement_is_the_minimum(paper_solution):
+    sol = paper_solution
+    assert sol.t_man_s[0] == 0.0 and sol.t_man_s[-1] < 8080.5
+    assert np.allclose(np.diff(sol.t_man_s), 0.5)
+    assert np.isfinite(sol.delta_v_mps).all()
+    assert sol.best_delta_v_mps <= np.nanmin(sol.delta_v_mps) + 1e-9
+    # the single minimum: delta-v grows away from it on the grid
+    k = int(np.nanargmin(sol.delta_v_mps))
+    assert sol.delta_v_mps[k - 200] > sol.delta_v_mps[k] + 1.0 and sol.delta_v_mps[k + 200] > sol.delta_v_mps[k] + 1.0
+    # the paper's 4328 s is not a minimum of this model
+    at_4328 = sol.delta_v_mps[np.argmin(np.abs(sol.t_man_s - 4328.0))]
+    assert at_4328 > sol.best_delta_v_mps + 100.0
+
+
+def test_scan_point_matches_a_direct_single_lambert():
+    # the value at one grid time agrees with an independent scalar computation
+    from solvers.astro.lambert import lambert
+    mu = PAPER.mu
+    ri, vi = elements_to_state(mu, PAPER.interceptor_orbit)
+    rt, vt = elements_to_state(mu, PAPER.target_orbit)
+    r_t1, _ = propagate(mu, rt, vt, 8080.5)
+    r, v = propagate(mu, ri, vi, 1000.0)
+    one = lambert(mu, r, r_t1, 7080.5)
+    sol = solve_impulsive(InterceptProblem(**{**PAPER.__dict__, "scan": ScanSettings(step_s=500.0, retrograde=False)}))
+    assert sol.t_man_s[2] == 1000.0
+    assert abs(np.linalg.norm(one.v1 - v) - sol.delta_v_mps[2]) < 1e-9
+
+
+def test_insufficient_propellant_is_infeasible():
+    prob = InterceptProblem(**{**PAPER.__dict__, "propellant_kg": 200.0, "scan": ScanSettings(step_s=10.0)})
+    sol = solve_impulsive(prob)
+    assert sol.status.outcome is Outcome.INFEASIBLE
+    assert sol.status.solver_status == "insufficient_propellant"
+    assert abs(sol.best_delta_v_mps - 2302.48) < 0.01
+
+
+def test_cancel_and_progress():
+    ctx = Ctx(stop_after=1)
+    sol = solve(PAPER, on_progress=ctx.progress, should_stop=ctx.should_stop)
+    assert sol.status.outcome is Outcome.CANCELLED
+    ctx = Ctx()
+    sol = solve(PAPER, on_progress=ctx.progress, should_stop=ctx.should_stop)
+    fr = [f for f, _ in ctx.calls]
+    assert fr == sorted(fr) and fr[-1] == 1.0
+
+
+def test_porkchop_contains_the_fixed_time_minimum():
+    prob = InterceptProblem(**{**PAPER.__dict__, "scan": ScanSettings(step_s=5.0),
+                               "porkchop": PorkchopSettings(t_man_points=41, t_intercept_points=5,
+                                                            t_man_min_s=0.0, t_man_max_s=8000.0,
+                                                            t_intercept_min_s=6080.5, t_intercept_max_s=10080.5)})
+    sol = solve_impulsive(prob)
+    pc = sol.porkchop
+    assert pc.delta_v_mps.shape == (41, 5)
+    # column 2 is t_intercept = 8080.5: the 1-D scan at the same maneuver times
+    assert pc.t_intercept_s[2] == 8080.5
+    for i in (0, 10, 15, 20):
+        k = np.argmin(np.abs(sol.t_man_s - pc.t_man_s[i]))
+        assert abs(pc.delta_v_mps[i, 2] - sol.delta_v_mps[k]) < 1e-6
+    assert np.isnan(pc.delta_v_mps[-1, 0])  # maneuver after the interception
+    assert pc.best_delta_v_mps == np.nanmin(pc.delta_v_mps)
+    assert pc.best_delta_v_mps <= np.nanmin(pc.delta_v_mps[:, 2])
+
+
+def test_kind_run_preset_impulsive_only():
+    preset = PRESETS[0]
+    assert preset.name == "long-range-intercept" and "2302.48" in preset.description and "1501.73" in preset.description
+    params = Params.model_validate({**preset.params, "methods": ["impulsive"]})
+    ctx = Ctx()
+    out = run(params, ctx)
+    assert out.status == "succeeded"
+    res = out.result
+    json.dumps(res, allow_nan=False)  # plain JSON, no NaN
+    best = res["impulsive"]["best"]
+    assert abs(best["delta_v_mps"] - 2302.48) < 0.01 and abs(best["t_man_s"] - 3142.5) < 0.5
+    assert abs(best["fuel_kg"] - 271.4) < 0.05 and len(best["delta_v_vector_mps"]) == 3
+    assert len(res["impulsive"]["scan"]["t_man_s"]) == len(res["impulsive"]["scan"]["delta_v_mps"]) == 16161
+    assert res["finite_thrust"] is None and res["notes"]
+
+
+def test_kind_finite_thrust_placeholder_and_porkchop():
+    from solvers.intercept import METHODS
+    params = Params.model_validate({"scan": {"step_s": 20.0},
+                                    "porkchop": {"enabled": True, "t_man_points": 10, "t_intercept_points": 8}})
+    out = run(params, Ctx())
+    assert out.status == "succeeded"
+    res = out.result
+    json.dumps(res, allow_nan=False)
+    if "finite_thrust" not in METHODS:
+        assert res["finite_thrust"]["status"] == "not_implemented"
+        assert any("finite_thrust" in n for n in res["notes"])
+    pc = res["impulsive"]["porkchop"]
+    assert len(pc["delta_v_mps"]) == 10 and len(pc["delta_v_mps"][0]) == 8
+    assert pc["best"]["delta_v_mps"] > 0
+
+
+@pytest.mark.parametrize("bad,field", [
+    ({"interceptor": {"propellant_kg": 600.0}}, "propellant_kg"),
+    ({"interceptor": {"mass_kg": -1.0}}, "mass_kg"),
+    ({"interceptor": {"isp_s": 0.0}}, "isp_s"),
+    ({"interceptor": {"eccentricity": 1.0}}, "eccentricity"),
+    ({"methods": ["impulsive", "warp"]}, "methods"),
+    ({"methods": []}, "methods"),
+    ({"tf_bounds_s": [9000.0, 8000.0]}, "tf_bounds_s"),
+    ({"scan": {"step_s": 1e-6}}, "step_s"),
+    ({"porkchop": {"t_man_points": 1000, "t_intercept_points": 1000}}, "t_man_points"),
+    ({"intercept_time_s": float("nan")}, "intercept_time_s"),
+    ({"target": {"eccentricity": 0.1}}, "eccentricity"),
+])
+def test_params_validation_names_the_rule(bad, field):
+    from pydantic import ValidationError
+    with pytest.raises(ValidationError) as exc:
+        Params.model_validate(bad)
+    assert field in str(exc.value)
+
+
+def test_spec_and_problem_conversion():
+    assert SPEC.kind == "intercept" and SPEC.params_model is Params
+    prob = to_problem(Params())
+    assert prob.g0 == 9.80665 and prob.mu == 398600.4418e9
+    assert math.isclose(prob.interceptor_orbit.nu, D(1.54)) and prob.target_orbit.e == 0.0
