@@ -1,0 +1,386 @@
+"""Lifting reentry trajectory optimization by direct multiple shooting (the ``reentry`` job kind).
+
+Problem: paper 000 (Qu Xiangju, "Application of direct multiple shooting to trajectory
+optimization", 1991), cases 1-4, and the Betts shuttle benchmark (Betts, *Practical Methods for
+Optimal Control*, 2nd ed., sec. 6.3: max final latitude, with and without the 70 BTU/ft^2/s
+heating limit).  Dynamics and vehicle: :mod:`solvers.models.reentry_dynamics`,
+:mod:`solvers.models.shuttle`; transcription: :mod:`solvers.transcription.multiple_shooting`;
+independent check: :mod:`solvers.verification`.
+
+Objectives (all in SI/radians, minimized internally):
+``max_crossrange`` (final latitude), ``max_downrange`` (final longitude), ``max_great_circle_range``
+(paper 000 eqs. 24-26; degenerate for the shuttle, whose glide reaches the antipode),
+``min_heat_load`` (paper 000 case 3: ``int sqrt(rho) v^3 dt``), ``min_time``.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from solvers.common import Outcome, ProgressFn, SolveStatus, StopFn
+from solvers.models import reentry_dynamics as dyn
+from solvers.models import shuttle as sh
+from solvers.transcription.multiple_shooting import (PathConstraint, ShootingProblem,
+                                                      Transcription, control_at, control_nodes)
+from solvers.verification import Verification, repropagate
+
+OBJECTIVES = ("max_crossrange", "max_downrange", "max_great_circle_range", "min_heat_load",
+              "min_time")
+STATE_NAMES = ("altitude_m", "longitude_rad", "latitude_rad", "speed_mps", "flight_path_rad",
+               "heading_rad")
+# Betts' scaling advice: h / 1e5 ft, v / 1e4 ft/s, angles in radians, time in 1000 s.
+X_SCALE = (1e5 * sh.FT_TO_M, 1.0, 1.0, 1e4 * sh.FT_TO_M, 1.0, 1.0)
+U_SCALE = (1.0, 1.0)
+T_SCALE = 1000.0
+HEAT_LOAD_SCALE = 1e12    # sqrt(kg/m^3) m^3/s^2 s: J is ~5e12 for paper 000's case 3
+
+
+@dataclass
+class Terminal:
+    """Terminal equalities; ``None`` leaves that component free."""
+
+    altitude_m: float | None = None
+    longitude_rad: float | None = None
+    latitude_rad: float | None = None
+    speed_mps: float | None = None
+    flight_path_rad: float | None = None
+    heading_rad: float | None = None
+
+    def as_array(self) -> np.ndarray:
+        return np.array([np.nan if v is None else v for v in
+                         (self.altitude_m, self.longitude_rad, self.latitude_rad,
+                          self.speed_mps, self.flight_path_rad, self.heading_rad)], float)
+
+
+@dataclass
+class ReentryProblem:
+    vehicle: sh.Vehicle = field(default_factory=lambda: sh.SHUTTLE)
+    initial_state: tuple = sh.BETTS_INITIAL_STATE
+    terminal: Terminal = field(default_factory=lambda: Terminal(
+        altitude_m=sh.BETTS_TERMINAL["altitude_m"], speed_mps=sh.BETTS_TERMINAL["speed_mps"],
+        flight_path_rad=sh.BETTS_TERMINAL["flight_path_rad"]))
+    objective: str = "max_crossrange"
+    alpha_bounds_rad: tuple[float, float] = sh.BETTS_ALPHA_BOUNDS_RAD
+    bank_bounds_rad: tuple[float, float] = sh.BETTS_BANK_BOUNDS_RAD
+    max_heat_rate_w_m2: float | None = None
+    max_dynamic_pressure_pa: float | None = None
+    max_load_factor: float | None = None
+    path_enforcement: str = "nodes"        # "nodes" | "midpoints" | "substeps" | "integral"
+    intervals: int = 100
+    control: str = "linear"                # "linear" | "constant"
+    substeps: int = 4
+    tf_bounds_s: tuple[float, float] = (100.0, 10000.0)
+    min_speed_mps: float = sh.BETTS_MIN_SPEED_MPS
+    verify: bool = True
+    ipopt: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        if self.objective not in OBJECTIVES:
+            raise ValueError(f"objective must be one of {OBJECTIVES}")
+        if self.control not in ("linear", "constant"):
+            raise ValueError("control must be 'linear' or 'constant'")
+
+
+@dataclass
+class InitialGuess:
+    """A guess on any time grid: ``t`` (N,), ``x`` (6, N), ``u`` (2, N), physical units."""
+
+    t: np.ndarray
+    x: np.ndarray
+    u: np.ndarray
+
+
+@dataclass
+class ReentrySolution:
+    status: SolveStatus
+    objective_name: str
+    objective_value: float          # in the objective's natural unit (rad, s, SI heat load)
+    tf: float
+    t: np.ndarray
+    x: np.ndarray                   # (6, m+1)
+    u: np.ndarray                   # (2, m+1) linear or (2, m) constant
+    u_nodes_at_t: np.ndarray        # controls at every node (2, m+1), as the transcription defines
+    heat_rate: np.ndarray           # W/m^2 at the nodes
+    verification: Verification | None
+    notes: list[str] = field(default_factory=list)
+    stages: list[dict] = field(default_factory=list)
+
+
+# --- NLP parameters: vehicle data and limits are numbers, not structure ----------------------
+def _param_vector(problem: ReentryProblem) -> np.ndarray:
+    v = problem.vehicle
+    return np.array([v.mass_kg, v.area_m2, *v.cl_coeffs, *v.cd_coeffs, v.cd_scale, v.cl_scale,
+                     problem.max_heat_rate_w_m2 or 1.0, problem.max_dynamic_pressure_pa or 1.0,
+                     problem.max_load_factor or 1.0, problem.initial_state[1],
+                     problem.initial_state[2]], float)
+
+
+def _symbolic_vehicle(vehicle: sh.Vehicle, p):
+    ncl, ncd = len(vehicle.cl_coeffs), len(vehicle.cd_coeffs)
+    i = 2
+    cl = tuple(p[i + k] for k in range(ncl))
+    i += ncl
+    cd = tuple(p[i + k] for k in range(ncd))
+    i += ncd
+    veh = dataclasses.replace(vehicle, mass_kg=p[0], area_m2=p[1], cl_coeffs=cl, cd_coeffs=cd,
+                              cd_scale=p[i], cl_scale=p[i + 1])
+    return veh, p[i + 2], p[i + 3], p[i + 4], p[i + 5], p[i + 6]
+
+
+def _shooting_problem(problem: ReentryProblem, *, with_path: bool = True) -> ShootingProblem:
+    veh0 = problem.vehicle
+    n_params = len(_param_vector(problem))
+
+    def unpack(p):
+        return _symbolic_vehicle(veh0, p)
+
+    def dynamics(x, u, p):
+        return dyn.eom(x, u, unpack(p)[0], ca)
+
+    path = []
+    where = "nodes" if problem.path_enforcement == "integral" else problem.path_enforcement
+    integral = problem.path_enforcement == "integral"
+    if with_path and problem.max_heat_rate_w_m2 is not None:
+        path.append(PathConstraint("heat_rate", lambda x, u, p: dyn.heat_rate(
+            x, u, unpack(p)[0], ca) / unpack(p)[1] - 1.0, where=where, integral=integral))
+    if with_path and problem.max_dynamic_pressure_pa is not None:
+        path.append(PathConstraint("dynamic_pressure", lambda x, u, p: dyn.dynamic_pressure(
+            x, unpack(p)[0], ca) / unpack(p)[2] - 1.0, where=where, integral=integral))
+    if with_path and problem.max_load_factor is not None:
+        path.append(PathConstraint("load_factor", lambda x, u, p: dyn.load_factor(
+            x, u, unpack(p)[0], ca) / unpack(p)[3] - 1.0, where=where, integral=integral))
+
+    mayer, lagrange, scale = None, None, 1.0
+    obj = problem.objective
+    if obj == "max_crossrange":
+        mayer = lambda xf, T, p: -xf[2]  # noqa: E731
+    elif obj == "max_downrange":
+        mayer = lambda xf, T, p: -xf[1]  # noqa: E731
+    elif obj == "max_great_circle_range":
+        def mayer(xf, T, p):
+            lon0, lat0 = unpack(p)[4], unpack(p)[5]
+            # Minimizing the cosine of the central angle avoids arccos' infinite slope at 180 deg.
+            return (ca.sin(lat0) * ca.sin(xf[2])
+                    + ca.cos(lat0) * ca.cos(xf[2]) * ca.cos(xf[1] - lon0))
+    elif obj == "min_heat_load":
+        lagrange = lambda x, u, p: dyn.stagnation_heat_integrand(x, unpack(p)[0], ca)  # noqa: E731
+        scale = HEAT_LOAD_SCALE
+    elif obj == "min_time":
+        mayer = lambda xf, T, p: T  # noqa: E731
+        scale = T_SCALE
+    atm = veh0.atmosphere
+    key = ("reentry", obj, len(veh0.cl_coeffs), len(veh0.cd_coeffs), tuple(veh0.heat_coeffs),
+           atm, veh0.planet, veh0.rotating_earth)
+    return ShootingProblem(
+        key=key, nx=6, nu=2, n_params=n_params, dynamics=dynamics, x_scale=X_SCALE,
+        u_scale=U_SCALE, t_scale=T_SCALE, intervals=problem.intervals, control=problem.control,
+        substeps=problem.substeps, mayer=mayer, lagrange=lagrange, objective_scale=scale,
+        path=tuple(path), ipopt=dict(problem.ipopt))
+
+
+# --- numpy helpers ---------------------------------------------------------------------------
+def _rhs_numpy(vehicle):
+    def rhs(x, u):
+        return dyn.eom(x, u, vehicle, np)
+    return rhs
+
+
+def simulate_constant_controls(problem: ReentryProblem, *, alpha_rad: float, bank_rad: float,
+                               t_max: float = 5000.0, dt: float = 5.0) -> InitialGuess:
+    """Fixed-step RK4 glide with constant controls until the terminal altitude or speed is reached."""
+    rhs = _rhs_numpy(problem.vehicle)
+    u = np.array([alpha_rad, bank_rad])
+    x = np.asarray(problem.initial_state, float)
+    h_end = problem.terminal.altitude_m if problem.terminal.altitude_m is not None else 0.0
+    v_end = problem.terminal.speed_mps if problem.terminal.speed_mps is not None else 0.0
+    ts, xs = [0.0], [x]
+    t = 0.0
+    while t < t_max and x[0] > h_end and x[3] > max(v_end, problem.min_speed_mps):
+        k1 = rhs(x, u)
+        k2 = rhs(x + 0.5 * dt * k1, u)
+        k3 = rhs(x + 0.5 * dt * k2, u)
+        k4 = rhs(x + dt * k3, u)
+        x = x + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        t += dt
+        ts.append(t)
+        xs.append(x)
+    X = np.array(xs).T
+    return InitialGuess(t=np.array(ts), x=X, u=np.tile(u[:, None], (1, X.shape[1])))
+
+
+def linear_guess(problem: ReentryProblem, *, tf: float = 2000.0,
+                 alpha_rad: float = 17.0 * sh.DEG, bank_rad: float = -60.0 * sh.DEG) -> InitialGuess:
+    """States on straight lines from the initial state to the terminal values (free components:
+    a plausible end point), constant controls."""
+    x0 = np.asarray(problem.initial_state, float)
+    xf = problem.terminal.as_array()
+    default_end = np.array([sh.BETTS_TERMINAL["altitude_m"], x0[1] + 1.2, x0[2] + 0.5,
+                            sh.BETTS_TERMINAL["speed_mps"], -5.0 * sh.DEG, 0.0])
+    xf = np.where(np.isnan(xf), default_end, xf)
+    s = np.linspace(0.0, 1.0, 11)
+    X = x0[:, None] + (xf - x0)[:, None] * s[None, :]
+    U = np.tile(np.array([[alpha_rad], [bank_rad]]), (1, s.size))
+    return InitialGuess(t=s * tf, x=X, u=U)
+
+
+def _on_grid(guess: InitialGuess, m: int, control: str):
+    tf = float(guess.t[-1])
+    tau = np.linspace(0.0, 1.0, m + 1)
+    tg = np.asarray(guess.t, float) / tf
+    x = np.vstack([np.interp(tau, tg, row) for row in np.asarray(guess.x, float)])
+    nun = control_nodes(m, control)
+    tu = tau if control == "linear" else 0.5 * (tau[:-1] + tau[1:])
+    u = np.vstack([np.interp(tu, tg, row) for row in np.asarray(guess.u, float)])
+    return tf, x, u[:, :nun]
+
+
+def _bounds(problem: ReentryProblem, m: int):
+    big = 1e3
+    margin = sh.SINGULARITY_MARGIN_RAD
+    lo = np.array([-1e4, -big, -margin, problem.min_speed_mps, -margin, -big])
+    hi = np.array([2e5, big, margin, 2e4, margin, big])
+    x_lb = np.tile(lo[:, None], (1, m + 1))
+    x_ub = np.tile(hi[:, None], (1, m + 1))
+    x0 = np.asarray(problem.initial_state, float)
+    x_lb[:, 0] = x0
+    x_ub[:, 0] = x0
+    xf = problem.terminal.as_array()
+    fixed = ~np.isnan(xf)
+    x_lb[fixed, m] = xf[fixed]
+    x_ub[fixed, m] = xf[fixed]
+    u_lb = np.array([problem.alpha_bounds_rad[0], problem.bank_bounds_rad[0]])
+    u_ub = np.array([problem.alpha_bounds_rad[1], problem.bank_bounds_rad[1]])
+    return x_lb, x_ub, u_lb, u_ub
+
+
+def objective_value(problem: ReentryProblem, tf: float, x: np.ndarray, u_nodes: np.ndarray,
+                    t: np.ndarray) -> tuple[float, str]:
+    """The objective in natural units: (value, unit)."""
+    obj = problem.objective
+    if obj == "max_crossrange":
+        return float(x[2, -1]), "rad"
+    if obj == "max_downrange":
+        return float(x[1, -1]), "rad"
+    if obj == "max_great_circle_range":
+        lon0, lat0 = problem.initial_state[1], problem.initial_state[2]
+        c = (math.sin(lat0) * math.sin(x[2, -1])
+             + math.cos(lat0) * math.cos(x[2, -1]) * math.cos(x[1, -1] - lon0))
+        return float(math.acos(max(-1.0, min(1.0, c)))), "rad"
+    if obj == "min_heat_load":
+        return float(np.trapezoid(dyn.stagnation_heat_integrand(x, problem.vehicle, np), t)), \
+            "kg^0.5 m^1.5 s^-2"
+    return float(tf), "s"
+
+
+def _physical_violation(problem: ReentryProblem, tr: Transcription, res) -> str:
+    """Describe the worst violated constraint of an NLP iterate in physical units."""
+    blocks = tr.constraint_blocks(res.nlp.g)
+    parts = []
+    mm = blocks["matching"].reshape((6, -1), order="F") * np.asarray(X_SCALE)[:, None]
+    units = [("altitude", 1.0, "m"), ("longitude", 1 / sh.DEG, "deg"), ("latitude", 1 / sh.DEG, "deg"),
+             ("speed", 1.0, "m/s"), ("flight path angle", 1 / sh.DEG, "deg"),
+             ("heading", 1 / sh.DEG, "deg")]
+    rel = np.abs(mm) / np.asarray(X_SCALE)[:, None]
+    i, j = np.unravel_index(int(np.argmax(rel)), rel.shape)
+    name, f, unit = units[i]
+    parts.append(f"worst matching defect: {name} {abs(mm[i, j]) * f:.4g} {unit} at interval {j}")
+    if "path_nodes" in blocks and blocks["path_nodes"].size:
+        worst = float(blocks["path_nodes"].max())
+        if worst > 0:
+            parts.append(f"worst path-limit excess {100 * worst:.3g}% of its limit")
+    return "; ".join(parts)
+
+
+def solve(problem: ReentryProblem, *, initial_guess: InitialGuess | str | None = None,
+          on_progress: ProgressFn | None = None, should_stop: StopFn | None = None,
+          seed=None) -> ReentrySolution:  # noqa: ARG001 (deterministic)
+    """Solve one reentry problem. ``initial_guess``: an :class:`InitialGuess` (warm start, any
+    grid), ``"linear"``, ``"simulate"`` or None (the default: linear)."""
+    m = problem.intervals
+    notes: list[str] = []
+    stages: list[dict] = []
+    has_path = any(v is not None for v in (problem.max_heat_rate_w_m2,
+                                           problem.max_dynamic_pressure_pa, problem.max_load_factor))
+    if isinstance(initial_guess, InitialGuess):
+        guess = initial_guess
+    elif initial_guess == "simulate":
+        guess = simulate_constant_controls(problem, alpha_rad=17.0 * sh.DEG, bank_rad=-60.0 * sh.DEG)
+    else:
+        guess = linear_guess(problem)
+    p = _param_vector(problem)
+    x_lb, x_ub, u_lb, u_ub = _bounds(problem, m)
+    build_time = 0.0
+    spans = [(0.0, 0.95)]
+    warm_internally = has_path and not isinstance(initial_guess, InitialGuess)
+    if warm_internally:
+        # Pitfall seen (spec): the heat-limited case converges badly from a cold guess; solve the
+        # unconstrained problem first and start the constrained one from it.
+        spans = [(0.0, 0.45), (0.45, 0.95)]
+        tr0 = Transcription(_shooting_problem(problem, with_path=False))
+        build_time += 0.0 if tr0.was_cached else tr0.solver.build_time_s
+        r0 = tr0.solve(p=p, x_lb=x_lb, x_ub=x_ub, u_lb=u_lb, u_ub=u_ub,
+                       tf_bounds=problem.tf_bounds_s, guess=_on_grid(guess, m, problem.control),
+                       on_progress=on_progress, should_stop=should_stop, progress_span=spans[0],
+                       expected_iterations=40)
+        stages.append({"stage": "without path limits", "status": r0.status.solver_status,
+                       "iterations": r0.status.iterations, "solve_time_s": r0.status.solve_time_s})
+        if r0.status.outcome is Outcome.CANCELLED:
+            return _solution(problem, tr0, r0, build_time, notes, stages, verify=False)
+        if r0.status.ok:
+            guess = InitialGuess(t=r0.t, x=r0.x, u=_u_at_nodes(r0.t, r0.u, problem.control))
+            notes.append("warm-started from the solution without path limits")
+    tr = Transcription(_shooting_problem(problem))
+    build_time += 0.0 if tr.was_cached else tr.solver.build_time_s
+    res = tr.solve(p=p, x_lb=x_lb, x_ub=x_ub, u_lb=u_lb, u_ub=u_ub,
+                   tf_bounds=problem.tf_bounds_s, guess=_on_grid(guess, m, problem.control),
+                   on_progress=on_progress, should_stop=should_stop, progress_span=spans[-1],
+                   expected_iterations=40)
+    stages.append({"stage": "full problem", "status": res.status.solver_status,
+                   "iterations": res.status.iterations, "solve_time_s": res.status.solve_time_s})
+    return _solution(problem, tr, res, build_time, notes, stages,
+                     verify=problem.verify and res.status.outcome is Outcome.OPTIMAL)
+
+
+def _u_at_nodes(t, u, control):
+    return control_at(t, t, u, control)
+
+
+def _solution(problem, tr, res, build_time, notes, stages, *, verify) -> ReentrySolution:
+    st = res.status
+    total_iter = sum(s["iterations"] for s in stages)
+    total_solve = sum(s["solve_time_s"] for s in stages)
+    status = dataclasses.replace(st, iterations=total_iter, solve_time_s=total_solve,
+                                 build_time_s=build_time,
+                                 details={**st.details, "stages": stages,
+                                          "solver_cached": tr.was_cached})
+    if st.outcome is not Outcome.OPTIMAL and st.outcome is not Outcome.CANCELLED:
+        status.message = (f"IPOPT: {st.solver_status} after {st.iterations} iterations; "
+                          f"{_physical_violation(problem, tr, res)}")
+    u_nodes = _u_at_nodes(res.t, res.u, problem.control)
+    q = dyn.heat_rate(res.x, u_nodes, problem.vehicle, np)
+    value, _ = objective_value(problem, res.tf, res.x, u_nodes, res.t)
+    ver = None
+    if verify:
+        t0 = time.perf_counter()
+        path = {"heat_rate_w_m2": lambda X, U: dyn.heat_rate(X, U, problem.vehicle, np),
+                "dynamic_pressure_pa": lambda X, U: dyn.dynamic_pressure(X, problem.vehicle, np),
+                "load_factor": lambda X, U: dyn.load_factor(X, U, problem.vehicle, np)}
+        ver = repropagate(rhs=_rhs_numpy(problem.vehicle), x0=problem.initial_state,
+                          t_nodes=res.t, x_nodes=res.x, u_nodes=res.u, control=problem.control,
+                          path=path)
+        status.details["verification_time_s"] = time.perf_counter() - t0
+        if problem.max_heat_rate_w_m2 is not None:
+            excess = ver.path_max["heat_rate_w_m2"] / problem.max_heat_rate_w_m2 - 1.0
+            if excess > 1e-6:
+                notes.append(f"the heating limit is enforced at the {problem.path_enforcement}; "
+                             f"between them the re-propagated trajectory exceeds it by "
+                             f"{100 * excess:.2f}% (worst {ver.path_max['heat_rate_w_m2']:.1f} W/m^2)")
+    return ReentrySolution(status=status, objective_name=problem.objective, objective_value=value,
+                           tf=res.tf, t=res.t, x=res.x, u=res.u, u_nodes_at_t=u_nodes,
+                           heat_rate=np.asarray(q, float), verification=ver, notes=notes,
+                           stages=stages)
