@@ -1,0 +1,434 @@
+"""Timing of midcourse corrections on an upper-stage transfer orbit (paper 002).
+
+What this module is for: the ``midcourse`` job kind.  Zhang, Shi & Cui (2011,
+"Research on optimization of midcourse correction time points of upper stage
+transfer orbit via NSGA-II") fly an upper stage for ``T = 12900 s`` from an
+erroneous initial state; at each correction time ``t_k`` it solves the
+two-body Lambert problem (their eqs. (6)-(8)) from its current state to the
+*nominal* target position at ``T`` and applies the impulse.  Coasts follow the
+J2 dynamics of their eqs. (1)-(5) (:mod:`solvers.astro.j2`).  Three objectives
+are minimized (eq. (9)): total delta-v, final position error and final velocity
+error; NSGA-II (Deb et al. 2002) searches the correction times.
+
+Speed: the uncorrected erroneous trajectory is propagated once with Taylor dense
+output, so the state at the first correction of every candidate is an
+interpolation; each later coast is a SIMD-batched heyoka propagation of the
+whole population, and the Lambert problems are solved vectorized over it.
+pymoo's NSGA-II runs with a vectorized binary tournament, a hash-based
+duplicate elimination and no history, which keeps its own bookkeeping small.
+
+The Monte Carlo option draws the initial error from a zero-mean Gaussian with
+the given 3-sigma per axis; each candidate is then evaluated on the same
+samples (common random numbers) and the GA minimizes the mean or a percentile
+over samples.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from solvers.astro.j2 import GravityConstants, J2Propagator, LaunchFrame
+from solvers.common import Outcome, ProgressFn, SolveStatus, StopFn, never_stop, noop_progress
+
+# A candidate whose Lambert problem does not converge gets these objective
+# values: finite (pymoo and JSON dislike inf) and dominated by every real point.
+PENALTY = np.array([1.0e6, 1.0e12, 1.0e6])
+OBJECTIVE_NAMES = ("delta_v_mps", "position_error_m", "velocity_error_mps")
+
+
+@dataclass(frozen=True)
+class Dispersion:
+    """Monte Carlo over the initial error: Gaussian, with the problem's errors as 3-sigma."""
+
+    samples: int = 100
+    percentile: float = 99.0
+    seed: int = 0
+    statistic: Literal["mean", "percentile"] = "percentile"   # what the GA minimizes
+
+
+@dataclass(frozen=True)
+class GASettings:
+    """NSGA-II settings (paper Table 4: 100 x 500, crossover 0.8, mutation 0.1)."""
+
+    population: int = 100
+    generations: int = 500
+    crossover_prob: float = 0.8       # per mating pair (SBX)
+    mutation_prob: float = 0.1        # per decision variable (polynomial mutation)
+    crossover_eta: float = 15.0
+    mutation_eta: float = 20.0
+    # Off by default: with the paper's low mutation rate most offspring copy a
+    # parent, and eliminating them makes pymoo re-mate ~5 times per generation
+    # (2x the run time) for no gain in hypervolume; the survival gives exact
+    # copies zero crowding distance instead, so they are dropped first.
+    eliminate_duplicates: bool = False
+
+
+@dataclass
+class MidcourseProblem:
+    """One transfer with its navigation error; positions in the problem's frame (m, m/s, s).
+
+    ``frame.r0`` is the geocentric vector of the frame origin: zero for an
+    Earth-centred inertial frame.  ``position_error``/``velocity_error`` are a
+    fixed offset, or the 3-sigma of the Gaussian when ``dispersion`` is set.
+    """
+
+    r0: np.ndarray
+    v0: np.ndarray
+    r_target: np.ndarray
+    v_target: np.ndarray
+    tf: float = 12900.0
+    position_error: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    velocity_error: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    frame: LaunchFrame = field(default_factory=LaunchFrame.eci)
+    constants: GravityConstants = GravityConstants()
+    mode: Literal["evaluate", "optimize"] = "optimize"
+    schedules: list[list[float]] = field(default_factory=list)
+    corrections: int = 2
+    time_bounds: tuple[float, float] = (0.0, 12800.0)
+    min_spacing: float = 0.0
+    ga: GASettings = GASettings()
+    dispersion: Dispersion | None = None
+    hypervolume_reference: tuple[float, float, float] = (150.0, 2000.0, 70.0)
+    tol: float = 1e-12
+
+
+@dataclass
+class ScheduleResult:
+    times: np.ndarray               # (k,) s
+    objectives: np.ndarray          # (3,) the statistic minimized (or the only sample)
+    mean: np.ndarray | None = None  # (3,) with a dispersion
+    percentile: np.ndarray | None = None
+    impulses: np.ndarray | None = None   # (k, 3) m/s, fixed-offset case only
+
+
+@dataclass
+class MidcourseSolution:
+    status: SolveStatus
+    pareto_times: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))   # (n, k) s
+    pareto_objectives: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    pareto_mean: np.ndarray | None = None
+    pareto_percentile: np.ndarray | None = None
+    hypervolume: float = 0.0
+    hypervolume_reference: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    generations: int = 0
+    evaluations: int = 0
+    seed: int | None = None
+    schedules: list[ScheduleResult] = field(default_factory=list)
+    uncorrected: np.ndarray | None = None      # (3,) objectives with no correction
+    nominal_miss: tuple[float, float] = (0.0, 0.0)   # error-free coast: |dr| m, |dv| m/s
+    lambert_failures: int = 0
+    evaluation_time_s: float = 0.0
+
+
+def repair_schedule(times: np.ndarray, *, lower: float, upper: float, spacing: float) -> np.ndarray:
+    """Sort each row and push times apart to ``spacing`` while keeping them in bounds.
+
+    A forward pass enforces ``t_i >= max(lower, t_{i-1} + spacing)``, then a backward
+    pass ``t_i <= min(upper, t_{i+1} - spacing)``; together they keep the order and
+    the spacing whenever ``(k - 1) * spacing <= upper - lower`` (checked by the caller).
+    """
+    x = np.sort(np.clip(np.asarray(times, dtype=float), lower, upper), axis=1)
+    k = x.shape[1]
+    for i in range(1, k):
+        x[:, i] = np.maximum(x[:, i], x[:, i - 1] + spacing)
+    x[:, -1] = np.minimum(x[:, -1], upper)
+    for i in range(k - 2, -1, -1):
+        x[:, i] = np.minimum(x[:, i], x[:, i + 1] - spacing)
+    return x
+
+
+class CorrectionEvaluator:
+    """Objectives of correction schedules, vectorized over schedules and error samples."""
+
+    def __init__(self, problem: MidcourseProblem):
+        from solvers.astro.lambert import lambert
+
+        self._lambert = lambert
+        self.p = problem
+        self.frame = problem.frame
+        self.mu = problem.constants.mu
+        self.tf = float(problem.tf)
+        self.prop = J2Propagator(problem.frame.spin_axis, problem.constants, problem.tol)
+        r0 = np.asarray(problem.r0, float) + self.frame.r0
+        v0 = np.asarray(problem.v0, float)
+        self.r_target = np.asarray(problem.r_target, float) + self.frame.r0
+        self.v_target = np.asarray(problem.v_target, float)
+        dr = np.asarray(problem.position_error, float)
+        dv = np.asarray(problem.velocity_error, float)
+        if problem.dispersion is None:
+            offsets = np.concatenate([dr, dv])[None, :]
+        else:
+            rng = np.random.default_rng(problem.dispersion.seed)
+            sigma = np.concatenate([dr, dv]) / 3.0
+            offsets = rng.standard_normal((problem.dispersion.samples, 6)) * sigma
+        self.initial = np.concatenate([r0, v0])[None, :] + offsets        # (S, 6) geocentric
+        self.samples = self.initial.shape[0]
+        self.prop.warm_up()
+        nominal_end = self.prop.propagate(np.concatenate([r0, v0])[None, :], t0=0.0, t1=self.tf)[0]
+        self.nominal_miss = (float(np.linalg.norm(nominal_end[:3] - self.r_target)),
+                             float(np.linalg.norm(nominal_end[3:] - self.v_target)))
+        # Dense output of each sample's uncorrected coast: the state at the first
+        # correction is then an evaluation, not a propagation.
+        self._dense = [self.prop.dense(s, t0=0.0, t1=self.tf) for s in self.initial]
+        self.evaluations = 0
+        self.lambert_failures = 0
+        self.time_s = 0.0
+
+    def _impulse(self, r: np.ndarray, v: np.ndarray, tof: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Lambert impulse to the nominal target, on the branch closest to the current velocity."""
+        target = np.broadcast_to(self.r_target, r.shape)
+        best_dv = np.full(r.shape, np.nan)
+        ok = np.zeros(r.shape[0], dtype=bool)
+        for prograde in (True, False):
+            sol = self._lambert(self.mu, r, target, tof, revolutions=0, prograde=prograde)
+            v1 = np.asarray(sol.v1, float).reshape(r.shape)
+            conv = np.asarray(sol.converged, bool).reshape(-1) & np.all(np.isfinite(v1), axis=1)
+            dv = v1 - v
+            better = conv & (~ok | (np.linalg.norm(dv, axis=1) < np.linalg.norm(best_dv, axis=1)))
+            best_dv[better] = dv[better]
+            ok |= conv
+        return np.where(ok[:, None], best_dv, 0.0), ok
+
+    def evaluate_samples(self, times: np.ndarray, *, keep_impulses: bool = False):
+        """Objectives per schedule and sample: (N, S, 3), and impulses (N, S, k, 3) if asked."""
+        t_start = time.perf_counter()
+        times = np.atleast_2d(np.asarray(times, dtype=float))
+        n, k = times.shape
+        s_count = self.samples
+        # Row m = schedule m // S, sample m % S.
+        if k == 0:
+            states = np.repeat(np.stack([d(np.array([self.tf]))[0] for d in self._dense])[None],
+                               n, axis=0).reshape(n * s_count, 6)
+        else:
+            states = np.stack([d(times[:, 0]) for d in self._dense], axis=1).reshape(n * s_count, 6)
+        t_rows = np.repeat(times, s_count, axis=0)
+        total_dv = np.zeros(n * s_count)
+        ok = np.ones(n * s_count, dtype=bool)
+        impulses = np.zeros((n * s_count, k, 3))
+        for j in range(k):
+            tj = t_rows[:, j]
+            dv, conv = self._impulse(states[:, :3], states[:, 3:], self.tf - tj)
+            ok &= conv
+            states[:, 3:] += dv
+            total_dv += np.linalg.norm(dv, axis=1)
+            impulses[:, j] = dv
+            t_next = t_rows[:, j + 1] if j + 1 < k else np.full(n * s_count, self.tf)
+            states = self.prop.propagate(states, t0=tj, t1=t_next)
+        f = np.stack([total_dv,
+                      np.linalg.norm(states[:, :3] - self.r_target, axis=1),
+                      np.linalg.norm(states[:, 3:] - self.v_target, axis=1)], axis=1)
+        bad = ~ok | ~np.all(np.isfinite(f), axis=1)
+        f[bad] = PENALTY
+        self.lambert_failures += int(np.count_nonzero(bad))
+        self.evaluations += n
+        self.time_s += time.perf_counter() - t_start
+        f = f.reshape(n, s_count, 3)
+        if keep_impulses:
+            return f, impulses.reshape(n, s_count, k, 3)
+        return f
+
+    def statistics(self, f: np.ndarray) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+        """(objectives minimized, mean, percentile), each (N, 3), from per-sample values (N, S, 3)."""
+        d = self.p.dispersion
+        if d is None:
+            return f[:, 0], None, None
+        mean = f.mean(axis=1)
+        pct = np.percentile(f, d.percentile, axis=1)
+        return (mean if d.statistic == "mean" else pct), mean, pct
+
+    def __call__(self, times: np.ndarray) -> np.ndarray:
+        return self.statistics(self.evaluate_samples(times))[0]
+
+
+def hypervolume(objectives: np.ndarray, reference: tuple[float, float, float]) -> float:
+    """Fraction of the box ``[0, reference]`` dominated by the points (0 to 1).
+
+    Objectives are divided by the reference first so that m/s and m weigh alike;
+    points outside the box contribute only their part inside it.
+    """
+    from pymoo.indicators.hv import HV
+
+    f = np.asarray(objectives, float) / np.asarray(reference, float)
+    f = f[np.all(f < 1.0, axis=1)]
+    if f.size == 0:
+        return 0.0
+    return float(HV(ref_point=np.ones(3))(f))
+
+
+def _nondominated(f: np.ndarray) -> np.ndarray:
+    """Indices of the non-dominated rows of f (minimization), O(n^2) vectorized."""
+    le = np.all(f[:, None, :] <= f[None, :, :], axis=2)
+    lt = np.any(f[:, None, :] < f[None, :, :], axis=2)
+    dominated = np.any(le & lt, axis=0)
+    return np.flatnonzero(~dominated)
+
+
+def _run_nsga2(problem: MidcourseProblem, ev: CorrectionEvaluator, *, seed: int,
+               on_progress: ProgressFn, should_stop: StopFn):
+    from pymoo.algorithms.moo.nsga2 import NSGA2
+    from pymoo.core.callback import Callback
+    from pymoo.core.duplicate import DuplicateElimination
+    from pymoo.core.problem import Problem
+    from pymoo.core.repair import Repair
+    from pymoo.operators.crossover.sbx import SBX
+    from pymoo.operators.mutation.pm import PM
+    from pymoo.operators.survival.rank_and_crowding import RankAndCrowding
+    from pymoo.operators.survival.rank_and_crowding.metrics import (
+        FunctionalDiversity,
+        calc_crowding_distance,
+    )
+    from pymoo.operators.selection.tournament import TournamentSelection
+    from pymoo.optimize import minimize
+
+    lo, hi = map(float, problem.time_bounds)
+    k = problem.corrections
+    ga = problem.ga
+
+    class TimesProblem(Problem):
+        def __init__(self):
+            super().__init__(n_var=k, n_obj=3, xl=lo, xu=hi, elementwise=False)
+
+        def _evaluate(self, x, out, *args, **kwargs):
+            out["F"] = ev(x)
+
+    class SortAndSpace(Repair):
+        def _do(self, prob, x, **kwargs):
+            return repair_schedule(x, lower=lo, upper=hi, spacing=problem.min_spacing)
+
+    class HashDuplicates(DuplicateElimination):
+        """Duplicates are equal schedules to 1 microsecond: a set lookup, not pymoo's cdist."""
+
+        @staticmethod
+        def _keys(pop):
+            return [tuple(r) for r in np.round(pop.get("X") * 1e6).astype(np.int64)]
+
+        def _do(self, pop, other, is_duplicate):
+            keys = self._keys(pop)
+            seen = set() if other is None else set(self._keys(other))
+            for i, key in enumerate(keys):
+                if key in seen:
+                    is_duplicate[i] = True
+                elif other is None:
+                    seen.add(key)
+            return is_duplicate
+
+    def tournament(pop, P, algorithm, **kwargs):
+        # NSGA-II's binary tournament on rank then crowding (no constraints here),
+        # vectorized: pymoo's default loops in Python over every pair.
+        rank = pop.get("rank").astype(float)
+        crowd = pop.get("crowding").astype(float)
+        a, b = P[:, 0], P[:, 1]
+        rs = algorithm.random_state
+        pick_a = (rank[a] < rank[b]) | ((rank[a] == rank[b]) & (crowd[a] > crowd[b]))
+        tie = (rank[a] == rank[b]) & (crowd[a] == crowd[b])
+        pick_a = np.where(tie, rs.random(len(a)) < 0.5, pick_a)
+        return np.where(pick_a, a, b)[:, None].astype(int)
+
+    class LightNSGA2(NSGA2):
+        def _set_optimum(self, **kwargs):
+            # No constraints, so pymoo's per-individual feasibility scan is wasted work.
+            self.opt = self.pop[self.pop.get("rank") == 0]
+
+    class Monitor(Callback):
+        def __init__(self):
+            super().__init__()
+            self.cancelled = False
+            self.generation = 0
+
+        def notify(self, algorithm):
+            g = self.generation = int(algorithm.n_gen)
+            on_progress(min(g / ga.generations, 1.0), f"generation {g}/{ga.generations}")
+            if should_stop():
+                self.cancelled = True
+                algorithm.termination.force_termination = True
+                # pymoo reads the flag in update(), which ran before this callback:
+                # update again so the run stops now, not one generation later.
+                algorithm.termination.update(algorithm)
+
+    algorithm = LightNSGA2(
+        pop_size=ga.population,
+        selection=TournamentSelection(func_comp=tournament),
+        crossover=SBX(prob=ga.crossover_prob, eta=ga.crossover_eta),
+        mutation=PM(prob=1.0, prob_var=ga.mutation_prob, eta=ga.mutation_eta),
+        repair=SortAndSpace(),
+        # Copies of a point get zero crowding distance, so they are dropped first.
+        survival=RankAndCrowding(crowding_func=FunctionalDiversity(calc_crowding_distance,
+                                                                   filter_out_duplicates=True)),
+        eliminate_duplicates=HashDuplicates() if ga.eliminate_duplicates else False,
+    )
+    monitor = Monitor()
+    res = minimize(TimesProblem(), algorithm, ("n_gen", ga.generations), seed=seed,
+                   callback=monitor, verbose=False, save_history=False, copy_algorithm=False)
+    pop = res.algorithm.pop if res.algorithm is not None else algorithm.pop
+    x, f = pop.get("X"), pop.get("F")
+    idx = _nondominated(f)
+    return x[idx], f[idx], monitor.generation, monitor.cancelled
+
+
+def solve(problem: MidcourseProblem, *, initial_guess=None, on_progress: ProgressFn | None = None,
+          should_stop: StopFn | None = None, seed: int | None = None) -> MidcourseSolution:
+    """Evaluate the given schedules or optimize the correction times with NSGA-II.
+
+    ``initial_guess`` is unused (the GA samples its own population); ``seed``
+    drives the GA and defaults to 1.
+    """
+    del initial_guess
+    on_progress = on_progress or noop_progress
+    should_stop = should_stop or never_stop
+    t_start = time.perf_counter()
+    ev = CorrectionEvaluator(problem)
+    build_s = time.perf_counter() - t_start
+    sol = MidcourseSolution(status=SolveStatus(Outcome.OPTIMAL), nominal_miss=ev.nominal_miss,
+                            hypervolume_reference=tuple(problem.hypervolume_reference))
+    f0 = ev.evaluate_samples(np.zeros((1, 0)))
+    sol.uncorrected = ev.statistics(f0)[0][0]
+
+    cancelled = False
+    if problem.mode == "evaluate":
+        for i, sched in enumerate(problem.schedules):
+            if should_stop():
+                cancelled = True
+                break
+            t = np.asarray(sched, float)[None, :]
+            f, imp = ev.evaluate_samples(t, keep_impulses=True)
+            obj, mean, pct = ev.statistics(f)
+            sol.schedules.append(ScheduleResult(
+                times=t[0], objectives=obj[0],
+                mean=None if mean is None else mean[0],
+                percentile=None if pct is None else pct[0],
+                impulses=imp[0, 0] if ev.samples == 1 else None))
+            on_progress((i + 1) / len(problem.schedules), f"schedule {i + 1}/{len(problem.schedules)}")
+        if sol.schedules:
+            objs = np.array([s.objectives for s in sol.schedules])
+            sol.hypervolume = hypervolume(objs[_nondominated(objs)], problem.hypervolume_reference)
+        sol.evaluations = ev.evaluations
+    else:
+        sol.seed = 1 if seed is None else int(seed)
+        x, f, gens, cancelled = _run_nsga2(problem, ev, seed=sol.seed, on_progress=on_progress,
+                                           should_stop=should_stop)
+        order = np.lexsort(f.T[::-1])           # by delta-v, then position error
+        x, f = x[order], f[order]
+        sol.pareto_times, sol.pareto_objectives = x, f
+        if problem.dispersion is not None and len(x):
+            # Re-evaluate the front to report both statistics (same samples, so exact).
+            _, sol.pareto_mean, sol.pareto_percentile = ev.statistics(ev.evaluate_samples(x))
+        sol.hypervolume = hypervolume(f, problem.hypervolume_reference)
+        sol.generations = int(gens)
+        sol.evaluations = ev.evaluations
+
+    sol.seed = sol.seed if problem.mode == "optimize" else seed
+    sol.lambert_failures = ev.lambert_failures
+    sol.evaluation_time_s = ev.time_s
+    total = time.perf_counter() - t_start
+    if cancelled:
+        outcome, msg = Outcome.CANCELLED, "cancelled by request; partial result"
+    else:
+        outcome, msg = Outcome.OPTIMAL, "NSGA-II finished" if problem.mode == "optimize" else "schedules evaluated"
+    sol.status = SolveStatus(outcome, solver_status="cancelled" if cancelled else "finished", message=msg,
+                             iterations=sol.generations, build_time_s=build_s,
+                             solve_time_s=total - build_s,
+                             details={"lambert_failures": ev.lambert_failures})
+    return sol
