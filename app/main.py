@@ -2,8 +2,10 @@
 from __future__ import annotations
 
 from fastapi import FastAPI
+from fastapi.exceptions import RequestValidationError
 
 from app.db import get_database
+from app.errors import validation_error_handler
 from app.settings import Settings, get_settings
 
 DESCRIPTION = """
@@ -22,6 +24,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     settings = settings or get_settings()
     app = FastAPI(title="trajlab", version="0.1.0", description=DESCRIPTION)
+    app.add_exception_handler(RequestValidationError, validation_error_handler)
     app.state.settings = settings
     app.state.db = get_database(settings.database_url)
     app.state.celery = create_celery(settings)

@@ -14,15 +14,18 @@ import time
 
 from app import jobs
 from app.db import Database
+from app.settings import Settings
 
 
 class WorkerJobContext:
-    def __init__(self, db: Database, claim: jobs.Claim, *, heartbeat_interval_s: float, deadline_s: float):
+    def __init__(self, db: Database, claim: jobs.Claim, *, settings: Settings, celery=None):
         self.db = db
+        self.settings = settings
+        self.celery = celery
         self.job_id = claim.job_id
         self.attempt = claim.attempt
-        self.interval = heartbeat_interval_s
-        self.deadline = time.monotonic() + deadline_s
+        self.interval = settings.heartbeat_interval_s
+        self.deadline = time.monotonic() + settings.time_limit_s(claim.kind)
         self._progress = 0.0
         self._message: str | None = None
         self.cancel_requested = False
@@ -52,6 +55,19 @@ class WorkerJobContext:
         if result is None:
             raise LookupError(f"job {job_id} has no stored result")
         return result
+
+    def run_monte_carlo(self, spec: dict, samples: int, seed: int, chunk_size: int | None = None) -> dict:
+        """Monte Carlo of a JSON spec; above ``monte_carlo_chunk_samples`` split across the workers."""
+        threshold = self.settings.monte_carlo_chunk_samples
+        if self.celery is None or samples <= threshold:
+            from solvers.uncertainty.montecarlo import run_monte_carlo
+
+            return run_monte_carlo(spec, samples, seed, chunk_size)
+        from worker import fanout
+
+        return fanout.run_distributed(self.celery, fanout.redis_from_broker_url(self.settings.broker_url),
+                                      spec=spec, samples=samples, seed=seed,
+                                      chunk_size=int(chunk_size or threshold), should_stop=self.should_stop)
 
     # --- plumbing ---------------------------------------------------------------------
     def _write(self) -> None:

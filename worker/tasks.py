@@ -13,8 +13,9 @@ from celery.exceptions import SoftTimeLimitExceeded
 from app import jobs
 from app.db import Database, get_database
 from app.kinds import KINDS
-from app.kinds.base import JobFailure, RunOutcome
+from app.kinds.base import JobCancelled, JobFailure, RunOutcome
 from app.settings import Settings, get_settings
+from worker import fanout
 from worker.celery_app import celery_app, publish_job
 from worker.context import WorkerJobContext
 
@@ -27,14 +28,15 @@ def execute_job(db: Database, settings: Settings, job_id: str, attempt: int, *, 
     if claim is None:
         return None
     spec = KINDS[claim.kind]
-    ctx = WorkerJobContext(db, claim, heartbeat_interval_s=settings.heartbeat_interval_s,
-                           deadline_s=settings.time_limit_s(claim.kind))
+    ctx = WorkerJobContext(db, claim, settings=settings, celery=celery_app)
     with ctx:
         try:
             params = spec.params_model.model_validate(claim.params)
             outcome = spec.run(params, ctx)
         except JobFailure as exc:
             outcome = RunOutcome("failed", error={"code": exc.code, "message": exc.message, "details": exc.details})
+        except JobCancelled:
+            outcome = RunOutcome("cancelled", error={"code": "cancelled", "message": "cancelled by request"})
         except SoftTimeLimitExceeded:
             outcome = RunOutcome("failed", error=_time_limit_error(settings, claim.kind))
         except Exception as exc:  # the job fails with a stored reason; the worker lives on
@@ -60,6 +62,13 @@ def run_job(self, job_id: str, attempt: int) -> str | None:
     settings = get_settings()
     return execute_job(get_database(settings.database_url), settings, job_id, attempt,
                        worker=self.request.hostname or socket.gethostname())
+
+
+@celery_app.task(name="trajlab.mc_chunk", bind=True)
+def mc_chunk(self, run_id: str, index: int, start: int, count: int, seed: int) -> bool:
+    settings = get_settings()
+    return fanout.compute_chunk(fanout.redis_from_broker_url(settings.broker_url), run_id, index, start, count,
+                                seed, who=self.request.hostname or socket.gethostname())
 
 
 @celery_app.task(name="trajlab.reap")

@@ -53,6 +53,10 @@ class JobFailure(Exception):
         self.details = details or {}
 
 
+class JobCancelled(Exception):
+    """Raised from deep inside a run (e.g. a fanned-out Monte Carlo) when the job was cancelled."""
+
+
 @dataclass
 class RunOutcome:
     """What ``run`` returns.

@@ -1,0 +1,12 @@
+# One image for every trajlab process (api, worker, beat, migrate); the command picks the role.
+FROM python:3.11-slim
+WORKDIR /srv/trajlab
+ENV PYTHONDONTWRITEBYTECODE=1 PYTHONUNBUFFERED=1
+COPY pyproject.toml README.md alembic.ini ./
+COPY app ./app
+COPY worker ./worker
+COPY solvers ./solvers
+COPY migrations ./migrations
+RUN pip install --no-cache-dir .
+EXPOSE 8000
+CMD ["trajlab", "api", "--host", "0.0.0.0", "--port", "8000"]
