@@ -102,6 +102,7 @@ class ScheduleResult:
     mean: np.ndarray | None = None  # (3,) with a dispersion
     percentile: np.ndarray | None = None
     impulses: np.ndarray | None = None   # (k, 3) m/s, fixed-offset case only
+    lambert_failures: int = 0            # samples whose Lambert problem did not converge
 
 
 @dataclass
@@ -162,7 +163,7 @@ class CorrectionEvaluator:
             offsets = np.concatenate([dr, dv])[None, :]
         else:
             rng = np.random.default_rng(problem.dispersion.seed)
-            sigma = np.concatenate([dr, dv]) / 3.0
+            sigma = np.abs(np.concatenate([dr, dv])) / 3.0
             offsets = rng.standard_normal((problem.dispersion.samples, 6)) * sigma
         self.initial = np.concatenate([r0, v0])[None, :] + offsets        # (S, 6) geocentric
         self.samples = self.initial.shape[0]
@@ -258,7 +259,7 @@ def hypervolume(objectives: np.ndarray, reference: tuple[float, float, float]) -
     return float(HV(ref_point=np.ones(3))(f))
 
 
-def _nondominated(f: np.ndarray) -> np.ndarray:
+def nondominated(f: np.ndarray) -> np.ndarray:
     """Indices of the non-dominated rows of f (minimization), O(n^2) vectorized."""
     le = np.all(f[:, None, :] <= f[None, :, :], axis=2)
     lt = np.any(f[:, None, :] < f[None, :, :], axis=2)
@@ -364,7 +365,7 @@ def _run_nsga2(problem: MidcourseProblem, ev: CorrectionEvaluator, *, seed: int,
                    callback=monitor, verbose=False, save_history=False, copy_algorithm=False)
     pop = res.algorithm.pop if res.algorithm is not None else algorithm.pop
     x, f = pop.get("X"), pop.get("F")
-    idx = _nondominated(f)
+    idx = nondominated(f)
     return x[idx], f[idx], monitor.generation, monitor.cancelled
 
 
@@ -393,17 +394,19 @@ def solve(problem: MidcourseProblem, *, initial_guess=None, on_progress: Progres
                 cancelled = True
                 break
             t = np.asarray(sched, float)[None, :]
+            failures_before = ev.lambert_failures
             f, imp = ev.evaluate_samples(t, keep_impulses=True)
             obj, mean, pct = ev.statistics(f)
             sol.schedules.append(ScheduleResult(
                 times=t[0], objectives=obj[0],
                 mean=None if mean is None else mean[0],
                 percentile=None if pct is None else pct[0],
-                impulses=imp[0, 0] if ev.samples == 1 else None))
+                impulses=imp[0, 0] if ev.samples == 1 else None,
+                lambert_failures=ev.lambert_failures - failures_before))
             on_progress((i + 1) / len(problem.schedules), f"schedule {i + 1}/{len(problem.schedules)}")
         if sol.schedules:
             objs = np.array([s.objectives for s in sol.schedules])
-            sol.hypervolume = hypervolume(objs[_nondominated(objs)], problem.hypervolume_reference)
+            sol.hypervolume = hypervolume(objs[nondominated(objs)], problem.hypervolume_reference)
         sol.evaluations = ev.evaluations
     else:
         sol.seed = 1 if seed is None else int(seed)

@@ -1,0 +1,119 @@
+"""The midcourse kind's API edge: parameter rules, presets, run() with a job context."""
+import json
+
+import pytest
+from pydantic import ValidationError
+
+from app.kinds.midcourse import PRESETS, SPEC, Params, run
+from app.params import deep_merge
+
+
+class Ctx:
+    job_id = "test"
+
+    def __init__(self, stop_after=None):
+        self.messages = []
+        self.stop_after = stop_after
+        self.polls = 0
+
+    def progress(self, fraction, message):
+        self.messages.append((fraction, message))
+
+    def should_stop(self):
+        self.polls += 1
+        return self.stop_after is not None and self.polls >= self.stop_after
+
+    def load_result(self, job_id):
+        raise LookupError(job_id)
+
+
+def preset(name, **overrides):
+    p = next(p for p in PRESETS if p.name == name)
+    return Params.model_validate(deep_merge(p.params, overrides))
+
+
+def test_spec_and_presets():
+    assert SPEC.kind == "midcourse"
+    names = {p.name for p in PRESETS}
+    assert "upper-stage-two-corrections" in names
+    two = preset("upper-stage-two-corrections")
+    assert (two.mode, two.corrections, two.population, two.generations) == ("optimize", 2, 100, 500)
+    assert (two.crossover_prob, two.mutation_prob, two.time_bounds_s) == (0.8, 0.1, [0.0, 12800.0])
+    desc = next(p for p in PRESETS if p.name == "upper-stage-two-corrections").description
+    assert "0.5 m/s" in desc and "330 m" in desc and "261 m" in desc and "late second" in desc
+
+
+@pytest.mark.parametrize("params, rule", [
+    ({"corrections": 6}, "corrections"),
+    ({"corrections": 0}, "corrections"),
+    ({"population": 3}, "population"),
+    ({"population": 10**6}, "population"),
+    ({"generations": 10**6}, "generations"),
+    ({"mode": "evaluate"}, "at least one schedule"),
+    ({"mode": "evaluate", "schedules": [[8000.0, 3000.0]]}, "sorted"),
+    ({"mode": "evaluate", "schedules": [[13000.0]]}, "within [0, tf_s)"),
+    ({"mode": "evaluate", "schedules": [[-1.0]]}, "within [0, tf_s)"),
+    ({"mode": "evaluate", "schedules": [[1, 2, 3, 4, 5, 6]]}, "at most 5"),
+    ({"mode": "evaluate", "schedules": [[1000.0, 1500.0]], "min_spacing_s": 1000.0}, "min_spacing_s apart"),
+    ({"time_bounds_s": [5000.0, 4000.0]}, "earliest < latest"),
+    ({"time_bounds_s": [0.0, 13000.0]}, "before tf_s"),
+    ({"corrections": 5, "min_spacing_s": 4000.0}, "min_spacing_s too large"),
+    ({"initial": {"position_m": [1.0, 2.0]}}, "position_m"),
+    ({"initial_error": {"velocity_mps": [float("nan"), 0.0, 0.0]}}, "velocity_mps"),
+    ({"dispersion": {"samples": 1000}, "population": 1000}, "population * dispersion.samples"),
+    ({"frame": "ecef"}, "frame"),
+    ({"bogus": 1}, "bogus"),
+])
+def test_bad_params_name_the_rule(params, rule):
+    with pytest.raises(ValidationError) as exc:
+        Params.model_validate(params)
+    assert rule in str(exc.value)
+
+
+def test_table3_preset_runs_and_is_json():
+    ctx = Ctx()
+    out = run(preset("upper-stage-table3"), ctx)
+    assert out.status == "succeeded"
+    res = json.loads(json.dumps(out.result, allow_nan=False))
+    rows = res["schedules"]
+    assert [r["times_s"] for r in rows][3] == [3000.0, 8000.0]
+    assert rows[4]["delta_v_mps"] == pytest.approx(32.004, abs=0.5)
+    assert rows[4]["velocity_error_mps"] == pytest.approx(4.315, abs=0.5)
+    assert rows[4]["position_error_m"] == pytest.approx(337.5, abs=2.0)
+    assert all(r["lambert_converged"] for r in rows)
+    assert len(rows[6]["impulses_mps"]) == 3
+    assert res["pareto_front"] and 0.0 < res["hypervolume"] <= 1.0
+    assert res["notes"] and "261 m" in res["notes"][0]
+    assert ctx.messages[-1] == (1.0, "schedule 7/7")
+
+
+def test_small_optimize_run_result():
+    ctx = Ctx()
+    out = run(preset("upper-stage-two-corrections", population=12, generations=6, seed=5), ctx)
+    assert out.status == "succeeded"
+    res = json.loads(json.dumps(out.result, allow_nan=False))
+    assert res["generations"] == 6 and res["seed"] == 5 and res["evaluations"] >= 12 * 6
+    assert res["settings"]["population"] == 12
+    assert res["schedules"] is None
+    for p in res["pareto_front"]:
+        assert len(p["times_s"]) == 2 and p["times_s"][0] <= p["times_s"][1]
+        assert set(p) >= {"delta_v_mps", "position_error_m", "velocity_error_mps"}
+    assert ctx.messages[-1] == (1.0, "generation 6/6")
+
+
+def test_cancelled_run_keeps_a_partial_front():
+    out = run(preset("upper-stage-two-corrections", population=12, generations=50), Ctx(stop_after=2))
+    assert out.status == "cancelled"
+    assert out.result["generations"] == 2
+    assert out.result["pareto_front"]
+    assert out.error["code"] == "cancelled"
+
+
+def test_monte_carlo_result_has_both_statistics():
+    out = run(preset("upper-stage-table3", schedules=[[1000.0, 8000.0]],
+                     dispersion={"samples": 50, "percentile": 95.0, "seed": 2}), Ctx())
+    assert out.status == "succeeded"
+    row = out.result["schedules"][0]
+    assert row["percentile"]["position_error_m"] > row["mean"]["position_error_m"]
+    assert row["delta_v_mps"] == row["percentile"]["delta_v_mps"]
+    assert "impulses_mps" not in row
