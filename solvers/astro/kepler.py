@@ -26,7 +26,8 @@ def stumpff(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     mid = ~(pos | neg)
     if np.any(pos):
         sz = np.sqrt(z[pos])
-        c[pos] = (1.0 - np.cos(sz)) / z[pos]
+        # 1 - cos cancels near sz = 2 pi (multi-revolution Lambert); the half-angle form does not
+        c[pos] = 2.0 * np.sin(0.5 * sz) ** 2 / z[pos]
         s[pos] = (sz - np.sin(sz)) / sz ** 3
     if np.any(neg):
         sz = np.sqrt(-z[neg])
