@@ -36,6 +36,7 @@ from solvers.common import Outcome, ProgressFn, SolveStatus, StopFn, never_stop,
 # A candidate whose Lambert problem does not converge gets these objective
 # values: finite (pymoo and JSON dislike inf) and dominated by every real point.
 PENALTY = np.array([1.0e6, 1.0e12, 1.0e6])
+_MIRROR = np.array([-1.0, 1.0, 1.0])
 OBJECTIVE_NAMES = ("delta_v_mps", "position_error_m", "velocity_error_mps")
 
 
@@ -179,19 +180,28 @@ class CorrectionEvaluator:
         self.time_s = 0.0
 
     def _impulse(self, r: np.ndarray, v: np.ndarray, tof: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Lambert impulse to the nominal target, on the branch closest to the current velocity."""
+        """Lambert impulse to the nominal target, on the branch closest to the current velocity.
+
+        Both zero-revolution branches are solved in one vectorized call: mirroring
+        x -> -x reverses the z part of r1 x r2, so the retrograde arc of (r1, r2) is
+        the mirror image of the prograde arc of the mirrored pair.  One call of 2N
+        rows instead of two of N halves the per-call overhead, which dominates at
+        population sizes of ~100.
+        """
+        n = r.shape[0]
         target = np.broadcast_to(self.r_target, r.shape)
-        best_dv = np.full(r.shape, np.nan)
-        ok = np.zeros(r.shape[0], dtype=bool)
-        for prograde in (True, False):
-            sol = self._lambert(self.mu, r, target, tof, revolutions=0, prograde=prograde)
-            v1 = np.asarray(sol.v1, float).reshape(r.shape)
-            conv = np.asarray(sol.converged, bool).reshape(-1) & np.all(np.isfinite(v1), axis=1)
-            dv = v1 - v
-            better = conv & (~ok | (np.linalg.norm(dv, axis=1) < np.linalg.norm(best_dv, axis=1)))
-            best_dv[better] = dv[better]
-            ok |= conv
-        return np.where(ok[:, None], best_dv, 0.0), ok
+        sol = self._lambert(self.mu, np.concatenate([r, r * _MIRROR]),
+                            np.concatenate([target, target * _MIRROR]), np.concatenate([tof, tof]),
+                            revolutions=0, prograde=True)
+        v1 = np.asarray(sol.v1, float).reshape(2 * n, 3)
+        v1[n:] *= _MIRROR
+        conv = np.asarray(sol.converged, bool).reshape(-1) & np.all(np.isfinite(v1), axis=1)
+        dv = v1 - np.concatenate([v, v])
+        cost = np.where(conv, np.linalg.norm(np.where(conv[:, None], dv, 0.0), axis=1), np.inf)
+        retro = cost[n:] < cost[:n]
+        best = np.where(retro[:, None], dv[n:], dv[:n])
+        ok = conv[:n] | conv[n:]
+        return np.where(ok[:, None], best, 0.0), ok
 
     def evaluate_samples(self, times: np.ndarray, *, keep_impulses: bool = False):
         """Objectives per schedule and sample: (N, S, 3), and impulses (N, S, k, 3) if asked."""

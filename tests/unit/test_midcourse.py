@@ -210,3 +210,21 @@ def test_monte_carlo_statistics_and_seed():
     # The correction is nearly linear in the initial error: the fixed 3-sigma corner costs
     # 32.0 m/s, so Gaussian errors with that 3-sigma per axis must cost less on average.
     assert 3.0 < ra.mean[0] < 32.0
+
+
+def test_mirrored_branch_solve_equals_two_explicit_lambert_calls():
+    from solvers.astro.lambert import lambert
+
+    ev = CorrectionEvaluator(paper_problem())
+    rng = np.random.default_rng(5)
+    t = rng.uniform(0.0, 12800.0, 40)
+    states = ev._dense[0](t)
+    # Perturb the velocity so that some cases prefer each branch.
+    states[:, 3:] *= rng.choice([1.0, -1.0], size=(40, 1))
+    dv, ok = ev._impulse(states[:, :3], states[:, 3:], 12900.0 - t)
+    target = np.broadcast_to(ev.r_target, (40, 3))
+    cand = np.stack([lambert(ev.mu, states[:, :3], target, 12900.0 - t, prograde=p).v1 - states[:, 3:]
+                     for p in (True, False)])
+    pick = np.argmin(np.linalg.norm(cand, axis=2), axis=0)
+    assert ok.all() and len(set(pick)) == 2
+    assert np.allclose(dv, cand[pick, np.arange(40)], rtol=0, atol=1e-6)
