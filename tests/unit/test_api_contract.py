@@ -1,0 +1,87 @@
+"""The HTTP contract that needs no worker: kinds, presets, OpenAPI, validation messages."""
+from __future__ import annotations
+
+import pytest
+from fastapi.testclient import TestClient
+
+from app.kinds import KIND_NAMES, KINDS, PRESETS
+from app.main import create_app
+from app.migrate import upgrade
+from app.settings import Settings
+
+FIXED_PRESETS = {
+    "betts-max-crossrange": "reentry",
+    "betts-max-crossrange-heat-limited": "reentry",
+    "shuttle-max-downrange": "reentry",
+    "shuttle-max-crossrange": "reentry",
+    "shuttle-min-heat-load": "reentry",
+    "shuttle-min-heat-load-terminal": "reentry",
+    "robust-max-crossrange": "robust_reentry",
+    "upper-stage-two-corrections": "midcourse",
+    "long-range-intercept": "intercept",
+}
+
+
+@pytest.fixture(scope="module")
+def client(tmp_path_factory):
+    url = f"sqlite:///{tmp_path_factory.mktemp('api') / 'api.db'}"
+    upgrade(url)
+    # The broker is never contacted by these tests (nothing is submitted successfully).
+    with TestClient(create_app(Settings(database_url=url, broker_url="redis://127.0.0.1:1/0"))) as c:
+        yield c
+
+
+def test_every_kind_of_the_contract_is_registered():
+    assert set(KINDS) == set(KIND_NAMES)
+
+
+def test_fixed_presets_exist_with_their_kind(client):
+    listed = {p["name"]: p for p in client.get("/v1/presets").json()}
+    for name, kind in FIXED_PRESETS.items():
+        assert name in listed, name
+        assert listed[name]["kind"] == kind
+        assert len(listed[name]["description"]) > 40
+        one = client.get(f"/v1/presets/{name}")
+        assert one.status_code == 200 and one.json()["params"] == listed[name]["params"]
+    assert client.get("/v1/presets/nope").status_code == 404
+
+
+@pytest.mark.parametrize("name", sorted(PRESETS))
+def test_preset_params_are_valid_and_resolved(name):
+    spec = KINDS[PRESETS[name].kind]
+    resolved = spec.params_model.model_validate(PRESETS[name].params).model_dump(mode="json")
+    assert spec.params_model.model_validate(resolved).model_dump(mode="json") == resolved
+
+
+def test_openapi_documents_every_kind_and_route(client):
+    doc = client.get("/openapi.json").json()
+    for path in ("/v1/jobs", "/v1/jobs/{job_id}", "/v1/jobs/{job_id}/result", "/v1/jobs/{job_id}/cancel",
+                 "/v1/presets", "/v1/presets/{name}", "/v1/lambert", "/healthz", "/readyz"):
+        assert path in doc["paths"], path
+    schemas = doc["components"]["schemas"]
+    for kind in KIND_NAMES:
+        title = "".join(p.capitalize() for p in kind.split("_")) + "Submission"
+        assert title in schemas, title
+    assert client.get("/docs").status_code == 200
+
+
+@pytest.mark.parametrize("body, field", [
+    ({"kind": "reentry", "params": {"grid": {"intervals": 10**6}}}, "intervals"),
+    ({"kind": "reentry", "params": {"grid": {"intervals": -3}}}, "intervals"),
+    ({"kind": "midcourse", "params": {"population": 1}}, "population"),
+    ({"kind": "intercept", "params": {"interceptor": {"isp_s": 0}}}, "isp_s"),
+    ({"kind": "robust_reentry", "params": {"monte_carlo": {"samples": -1}}}, "samples"),
+    ({"kind": "reentry", "params": {"bogus": 1}}, "bogus"),
+])
+def test_bad_input_is_422_naming_the_field(client, body, field):
+    before = client.get("/v1/jobs").json()["total"]
+    r = client.post("/v1/jobs", json=body)
+    assert r.status_code == 422, r.text
+    assert field in r.json()["message"]
+    assert client.get("/v1/jobs").json()["total"] == before
+
+
+def test_readyz_names_the_unreachable_broker(client):
+    r = client.get("/readyz")
+    assert r.status_code == 503
+    assert r.json()["database"] == "ok" and r.json()["broker"].startswith("unreachable")
