@@ -98,7 +98,10 @@ def propagate(mu: float, r0, v0, dt) -> tuple[np.ndarray, np.ndarray]:
             arg = (-2.0 * mu * alpha[hyp] * dtr[hyp]
                    / (rn[hyp] * vr[hyp] + sgn * np.sqrt(-mu * a) * (1.0 - rn[hyp] * alpha[hyp])))
             guess = sgn * np.sqrt(-a) * np.log(arg)
-        chi[hyp] = np.where(np.isfinite(guess), guess, sqmu * dtr[hyp] / rn[hyp])
+        # Vallado's guess is for long arcs: for short ones the log can have the wrong sign
+        # (chi must share the sign of dt) and then Laguerre runs into cosh overflow.
+        fallback = sqmu * dtr[hyp] / rn[hyp]
+        chi[hyp] = np.where(np.isfinite(guess) & (guess * sgn > 0), guess, fallback)
     par = ~(ell | hyp)
     if np.any(par):
         chi[par] = sqmu * dtr[par] / rn[par]
@@ -127,7 +130,8 @@ def propagate(mu: float, r0, v0, dt) -> tuple[np.ndarray, np.ndarray]:
         disc = np.sqrt(np.abs((k - 1.0) ** 2 * fp * fp - k * (k - 1.0) * f * fpp))
         xn = x - k * f / (fp + np.sign(fp) * disc)
         outside = ~((xn >= lo_i) & (xn <= hi_i)) & np.isfinite(lo_i) & np.isfinite(hi_i) & (f != 0.0)
-        xn = np.where(outside, 0.5 * (lo_i + hi_i), xn)
+        with np.errstate(invalid="ignore"):  # inf - inf on unbracketed (hyperbolic) rows, not selected
+            xn = np.where(outside, 0.5 * (lo_i + hi_i), xn)
         chi[idx] = xn
         done = (np.abs(xn - x) <= _TOL * np.maximum(1.0, np.abs(x))) | (f == 0.0)
         idx = idx[~done]
