@@ -128,8 +128,12 @@ _CACHE_LOCK = threading.Lock()
 
 
 def _integrator(kind: str, constants: GravityConstants, tol: float, batch: int = 1):
-    """A compiled heyoka integrator, built once per (kind, constants, tol, batch) per process."""
-    key = (kind, constants, tol, batch)
+    """A compiled heyoka integrator, built once per (kind, constants, tol, batch) and thread.
+
+    Integrators carry their state, so threads must not share one; the thread id in
+    the key makes a threaded worker pay one compilation per thread instead.
+    """
+    key = (kind, constants, tol, batch, threading.get_ident())
     with _CACHE_LOCK:
         ta = _CACHE.get(key)
         if ta is None:
@@ -152,8 +156,8 @@ def _integrator(kind: str, constants: GravityConstants, tol: float, batch: int =
 class J2Propagator:
     """Propagates geocentric states ``(R, V)`` under J2 gravity with reused heyoka integrators.
 
-    Not thread-safe per instance (the integrators hold state); one job uses one
-    propagator at a time, and worker processes run one job each.
+    One instance must not be shared between threads (the integrators hold state);
+    instances in different threads use different cached integrators.
     """
 
     spin_axis: np.ndarray
