@@ -117,3 +117,15 @@ def test_monte_carlo_result_has_both_statistics():
     assert row["percentile"]["position_error_m"] > row["mean"]["position_error_m"]
     assert row["delta_v_mps"] == row["percentile"]["delta_v_mps"]
     assert "impulses_mps" not in row
+
+
+def test_monte_carlo_optimize_reports_both_statistics_on_the_front():
+    out = run(preset("upper-stage-two-corrections", population=8, generations=3,
+                     dispersion={"samples": 10, "percentile": 90.0, "statistic": "mean"}), Ctx())
+    assert out.status == "succeeded"
+    res = json.loads(json.dumps(out.result, allow_nan=False))
+    assert res["settings"]["objectives"] == "mean"
+    for p in res["pareto_front"]:
+        assert p["delta_v_mps"] == pytest.approx(p["mean"]["delta_v_mps"], rel=1e-12)
+        assert set(p["percentile"]) == {"delta_v_mps", "position_error_m", "velocity_error_mps"}
+        assert p["percentile"]["position_error_m"] > 0.0
