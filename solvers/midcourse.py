@@ -396,6 +396,7 @@ def solve(problem: MidcourseProblem, *, initial_guess=None, on_progress: Progres
                             hypervolume_reference=tuple(problem.hypervolume_reference))
     f0 = ev.evaluate_samples(np.zeros((1, 0)))
     sol.uncorrected = ev.statistics(f0)[0][0]
+    ev.evaluations = 0          # count only the schedules asked for or searched
 
     cancelled = False
     if problem.mode == "evaluate":
@@ -425,12 +426,12 @@ def solve(problem: MidcourseProblem, *, initial_guess=None, on_progress: Progres
         order = np.lexsort(f.T[::-1])           # by delta-v, then position error
         x, f = x[order], f[order]
         sol.pareto_times, sol.pareto_objectives = x, f
+        sol.evaluations = ev.evaluations
         if problem.dispersion is not None and len(x):
             # Re-evaluate the front to report both statistics (same samples, so exact).
             _, sol.pareto_mean, sol.pareto_percentile = ev.statistics(ev.evaluate_samples(x))
         sol.hypervolume = hypervolume(f, problem.hypervolume_reference)
         sol.generations = int(gens)
-        sol.evaluations = ev.evaluations
 
     sol.seed = sol.seed if problem.mode == "optimize" else seed
     sol.lambert_failures = ev.lambert_failures
