@@ -28,8 +28,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.settings = settings
     app.state.db = get_database(settings.database_url)
     app.state.celery = create_celery(settings)
-    app.include_router(jobs.router)
+    bad_body = {400: {"description": "The body is not valid JSON (e.g. not UTF-8)"}}
+    app.include_router(jobs.router, responses=bad_body)
     app.include_router(presets.router)
-    app.include_router(lambert.router)
+    app.include_router(lambert.router, responses=bad_body)
     app.include_router(health.router)
     return app

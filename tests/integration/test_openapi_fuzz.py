@@ -1,0 +1,40 @@
+"""Schemathesis against the OpenAPI document: no 5xx, documented status codes honoured.
+
+Runs the app on SQLite with the real Redis as broker (on a database of its own)
+and no worker, so fuzzed submissions are stored and queued but never solved.
+"""
+from __future__ import annotations
+
+import os
+
+import pytest
+import redis
+import schemathesis
+from hypothesis import HealthCheck, settings
+from schemathesis.checks import not_a_server_error
+from schemathesis.specs.openapi.checks import status_code_conformance
+
+from app.main import create_app
+from app.migrate import upgrade
+from app.settings import Settings
+
+pytestmark = pytest.mark.integration
+
+BROKER = os.environ.get("TRAJLAB_TEST_FUZZ_REDIS", "redis://127.0.0.1:6379/12")
+DB_PATH = f"/tmp/trajlab-fuzz-{os.getpid()}.db"
+upgrade(f"sqlite:///{DB_PATH}")
+APP = create_app(Settings(database_url=f"sqlite:///{DB_PATH}", broker_url=BROKER))
+schema = schemathesis.openapi.from_asgi("/openapi.json", APP)
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _clean_broker():
+    yield
+    redis.Redis.from_url(BROKER).flushdb()
+    os.unlink(DB_PATH)
+
+
+@schema.parametrize()
+@settings(max_examples=30, deadline=None, suppress_health_check=list(HealthCheck))
+def test_api_conforms(case):
+    case.call_and_validate(checks=[not_a_server_error, status_code_conformance])
