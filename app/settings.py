@@ -51,8 +51,6 @@ class Settings(BaseSettings):
     monte_carlo_chunk_samples: int = Field(
         default=50_000, description="Above this many samples a Monte Carlo is split across workers"
     )
-    max_population: int = 2000
-    max_generations: int = 5000
 
     def time_limit_s(self, kind: str) -> float:
         return float(getattr(self, f"time_limit_{kind}_s"))
