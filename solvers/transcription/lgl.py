@@ -188,3 +188,35 @@ def refine_mesh(mesh: Mesh, *, split: np.ndarray, split_at: dict[int, float] | N
                 out.append(0.5 * (lo + hi))
         out.append(hi)
     return Mesh(tuple(out), mesh.nodes)
+
+
+def collocation_constraints(*, dynamics, X, U, params, seg_duration, nodes: int, segments: int):
+    """Multi-segment LGL collocation constraints as CasADi expressions.
+
+    ``X`` (nx, segments*nodes) and ``U`` (nu, segments*nodes) hold the node
+    values segment after segment; ``seg_duration`` (1, segments) the segment
+    durations; ``dynamics`` a ``ca.Function(x, u, p) -> xdot`` for one node and
+    ``params`` its parameter vector ``p`` (shared by all nodes).
+    Returns ``(defects, continuity)``: ``defects`` (nx, segments*nodes) is
+    ``X_k D^T - (h_k/2) f(X_k, U_k)`` per segment (one segment function,
+    ``map``-ped), ``continuity`` (nx, segments-1) the jump of the state between
+    the last node of a segment and the first of the next.  With
+    ``defects``' multipliers ``nu``, the costate estimate is ``-nu_i / w_i``
+    (Fahroo & Ross 2001, sign for CasADi's Lagrangian ``f + lam_g' g``).
+    """
+    import casadi as ca
+
+    nx = X.shape[0]
+    nu = U.shape[0]
+    D = lgl_diff_matrix(nodes)
+    Xs = ca.SX.sym("Xs", nx, nodes)
+    Us = ca.SX.sym("Us", nu, nodes)
+    hs = ca.SX.sym("hs")
+    ps = ca.SX.sym("ps", params.shape[0])
+    F = dynamics.map(nodes)(Xs, Us, ps)
+    seg = ca.Function("lgl_segment", [Xs, Us, hs, ps], [ca.mtimes(Xs, ca.DM(D.T)) - 0.5 * hs * F])
+    defects = seg.map(segments)(X, U, seg_duration, params)
+    last = [k * nodes + nodes - 1 for k in range(segments - 1)]
+    first = [(k + 1) * nodes for k in range(segments - 1)]
+    continuity = X[:, last] - X[:, first] if segments > 1 else ca.SX(nx, 0)
+    return defects, continuity
