@@ -296,6 +296,11 @@ def _physical_violation(problem: ReentryProblem, tr: Transcription, res) -> str:
     i, j = np.unravel_index(int(np.argmax(rel)), rel.shape)
     name, f, unit = units[i]
     parts.append(f"worst matching defect: {name} {abs(mm[i, j]) * f:.4g} {unit} at interval {j}")
+    if j == mm.shape[1] - 1:
+        # The last interval's integrated end is where the flight actually gets to.
+        reached = (res.x[i, -1] + mm[i, j]) * f
+        parts.append(f"the flight reaches {name} {reached:.4g} {unit} where the terminal "
+                     f"condition asks {res.x[i, -1] * f:.4g} {unit}")
     if "path_nodes" in blocks and blocks["path_nodes"].size:
         worst = float(blocks["path_nodes"].max())
         if worst > 0:
