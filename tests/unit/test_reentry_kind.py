@@ -1,0 +1,140 @@
+"""The reentry kind's API edge: parameter rules, presets, run() with a real job context."""
+import json
+
+import pytest
+from pydantic import ValidationError
+
+from app.kinds.reentry import PRESETS, SPEC, Params, run
+from app.params import deep_merge
+
+
+class Ctx:
+    """A job context without the service: results kept in a dict, stop after k polls."""
+
+    job_id = "test"
+
+    def __init__(self, stored=None, stop_after=None):
+        self.messages = []
+        self.stored = stored or {}
+        self.stop_after = stop_after
+        self.polls = 0
+
+    def progress(self, fraction, message):
+        self.messages.append((fraction, message))
+
+    def should_stop(self):
+        self.polls += 1
+        return self.stop_after is not None and self.polls >= self.stop_after
+
+    def load_result(self, job_id):
+        if job_id not in self.stored:
+            raise LookupError(f"job {job_id} not found or not succeeded")
+        return self.stored[job_id]
+
+
+def preset(name, **overrides):
+    p = next(p for p in PRESETS if p.name == name)
+    return Params.model_validate(deep_merge(p.params, overrides))
+
+
+@pytest.fixture(scope="module")
+def betts():
+    ctx = Ctx()
+    out = run(preset("betts-max-crossrange"), ctx)
+    return out, ctx
+
+
+def test_presets_registered():
+    assert SPEC.kind == "reentry"
+    assert {p.name for p in PRESETS} == {
+        "betts-max-crossrange", "betts-max-crossrange-heat-limited", "shuttle-max-downrange",
+        "shuttle-max-crossrange", "shuttle-min-heat-load", "shuttle-min-heat-load-terminal"}
+    for p in PRESETS:
+        Params.model_validate(p.params)
+    desc = {p.name: p.description for p in PRESETS}
+    assert "32.86" in desc["shuttle-min-heat-load-terminal"]
+    assert "degenerate" in desc["shuttle-max-downrange"]
+    assert "guess" in desc["shuttle-min-heat-load"]
+
+
+@pytest.mark.parametrize("params, rule", [
+    ({"grid": {"intervals": 10**6}}, "max_grid_intervals"),
+    ({"bounds": {"alpha_deg": [10.0, 5.0]}}, "lo < hi"),
+    ({"bounds": {"bank_deg": [0.0]}}, "lo < hi"),
+    ({"vehicle": {"mass_kg": -1.0}}, "greater than 0"),
+    ({"path": {"max_heat_rate_w_m2": float("nan")}}, "finite"),
+    ({"terminal": {"altitude_m": 90000.0}}, "below initial_state.altitude_m"),
+    ({"objective": "max_fun"}, "objective"),
+    ({"bogus": 1}, "bogus"),
+])
+def test_bad_params_name_the_rule(params, rule):
+    with pytest.raises(ValidationError) as exc:
+        Params.model_validate(params)
+    assert rule in str(exc.value)
+
+
+def test_betts_preset_result(betts):
+    out, ctx = betts
+    assert out.status == "succeeded"
+    res = json.loads(json.dumps(out.result, allow_nan=False))
+    assert res["solver"]["status"] == "Solve_Succeeded"
+    assert res["final"]["latitude_deg"] == pytest.approx(34.1412, abs=1e-3)
+    assert res["objective"] == {"name": "max_crossrange", "value": pytest.approx(34.1412, abs=1e-3),
+                                "unit": "deg"}
+    assert res["tf_s"] == pytest.approx(2008.59, abs=0.5)
+    tr = res["trajectory"]
+    assert len({len(v) for v in tr.values()}) == 1 and len(tr["t_s"]) == 101
+    ver = res["verification"]
+    assert abs(ver["final_latitude_diff_deg"]) < 0.01 and abs(ver["final_altitude_diff_m"]) < 30.48
+    assert ver["max_heat_rate_w_m2"] >= max(tr["heat_rate_w_m2"]) * (1 - 1e-9)
+    fr = [f for f, _ in ctx.messages]
+    assert fr == sorted(fr) and any("IPOPT iteration" in m for _, m in ctx.messages)
+
+
+def test_infeasible_case_fails_fast_with_diagnosis():
+    import time
+    t0 = time.perf_counter()
+    out = run(preset("shuttle-min-heat-load-terminal"), Ctx())
+    elapsed = time.perf_counter() - t0
+    assert out.status == "failed"
+    assert out.error["code"] == "infeasible"
+    assert "Infeasible_Problem_Detected" in out.error["message"]
+    assert "latitude" in out.error["message"] and "deg" in out.error["message"]
+    # The shortfall is the gap to the 32.86 deg reachable maximum.
+    assert "1.14 deg" in out.error["message"]
+    assert elapsed < 30.0   # a few seconds when the machine is free
+
+
+def test_warm_start_from_stored_result(betts):
+    out, _ = betts
+    stored = json.loads(json.dumps(out.result))
+    ctx = Ctx(stored={"job-1": stored})
+    p = preset("betts-max-crossrange", grid={"intervals": 60}, initial_guess={"from_job": "job-1"})
+    warm = run(p, ctx)
+    assert warm.status == "succeeded"
+    assert warm.result["final"]["latitude_deg"] == pytest.approx(34.1412, abs=2e-3)
+    assert warm.result["solver"]["iterations"] <= 15
+    assert any("job-1" in n for n in warm.result["notes"])
+
+
+def test_warm_start_from_unknown_job_is_a_clear_failure():
+    from app.kinds.base import JobFailure
+    with pytest.raises(JobFailure) as exc:
+        run(preset("betts-max-crossrange", initial_guess={"from_job": "nope"}), Ctx())
+    assert "initial_guess.from_job" in exc.value.message
+
+
+def test_cancellation_mid_solve():
+    ctx = Ctx(stop_after=5)
+    out = run(preset("betts-max-crossrange", grid={"intervals": 40}), ctx)
+    assert out.status == "cancelled"
+    assert out.error["code"] == "cancelled"
+    assert out.result["solver"]["status"] == "User_Requested_Stop"
+    assert out.result["solver"]["iterations"] <= 6
+
+
+def test_paper000_max_crossrange():
+    out = run(preset("shuttle-max-crossrange"), Ctx())
+    assert out.status == "succeeded" and out.result["solver"]["status"] == "Solve_Succeeded"
+    assert out.result["final"]["latitude_deg"] == pytest.approx(33.5133, abs=2e-3)
+    assert out.result["tf_s"] == pytest.approx(1956.8, abs=1.0)
