@@ -246,3 +246,145 @@ class CadetSystem:
         mu, J = G(m, u, mu_s)
         var = ca.sum2(ca.mtimes(J, P) * J)
         return ca.Function(name, [z, u, theta], [mu, var], ["z", "u", "theta"], ["mu", "var"])
+
+
+# -- sensitivity form ---------------------------------------------------------------------
+@dataclass(frozen=True)
+class SensitivityLayout:
+    """Packed ``[m; vec(S)]`` with ``S = dx/dw`` (nx x nw, column-major), ``w = [x0 directions; s]``."""
+
+    nx: int
+    nw: int
+
+    @property
+    def nz(self) -> int:
+        return self.nx * (1 + self.nw)
+
+    def pack(self, m, S) -> np.ndarray:
+        m = np.asarray(m, float)
+        S = np.asarray(S, float)
+        return np.concatenate([m, S.reshape((self.nx * self.nw,) + S.shape[2:], order="F")], axis=0)
+
+    def unpack(self, z) -> tuple[np.ndarray, np.ndarray]:
+        z = np.asarray(z, float)
+        return z[:self.nx], z[self.nx:].reshape((self.nx, self.nw) + z.shape[1:], order="F")
+
+    def scale_with_mean(self, mean_scale, sigma_scale, w_scale) -> np.ndarray:
+        # S_ij ~ sigma_i / sigma_wj
+        S = np.outer(np.asarray(sigma_scale, float), 1.0 / np.asarray(w_scale, float))
+        return np.concatenate([np.asarray(mean_scale, float), S.reshape(-1, order="F")])
+
+
+class CadetSensitivity:
+    """First-order CADET in sensitivity form: the same covariance with fewer equations.
+
+    With ``s`` constant and the initial covariance of rank ``r0`` (``P_xx(0) = L0 L0^T``,
+    ``P_xs(0) = 0``), the linearized deviation is ``dx(t) = S(t) w`` with
+    ``w = [xi; ds] ~ N(0, blockdiag(I, P_ss))`` and ``dS/dt = F_x S + [0, F_s]``, ``S(0) = [L0, 0]``.
+    Then ``P_xx = S Sigma_w S^T`` and ``P_xs = S_s P_ss`` solve exactly the Lyapunov
+    equations of :class:`CadetSystem`.  For paper 001 (``r0 = 0``, two parameters) that is
+    6 + 12 = 18 ODEs instead of 39, which makes every derivative the NLP needs several
+    times cheaper; the second-order mean term uses the covariance rebuilt from ``S``.
+    ``theta = [mu_s; vec(P_ss)]`` as for :class:`CadetSystem`.
+    """
+
+    def __init__(self, f: ca.Function, *, nx: int, nu: int, ns: int, r0: int = 0,
+                 second_order: bool = False):
+        self.f = f
+        self.nx, self.nu, self.ns, self.r0 = nx, nu, ns, r0
+        self.second_order = second_order
+        self.layout = SensitivityLayout(nx, r0 + ns)
+        self.n_theta = ns + ns * ns
+        self.rhs = self._build_rhs()
+
+    def _split(self, z, theta):
+        nx, ns, r0 = self.nx, self.ns, self.r0
+        m = z[:nx]
+        S = ca.reshape(z[nx:], nx, r0 + ns)
+        mu_s = theta[:ns]
+        P_ss = ca.reshape(theta[ns:], ns, ns)
+        S0, Ss = S[:, :r0], S[:, r0:]
+        P_xs = ca.mtimes(Ss, P_ss)
+        P_xx = ca.mtimes(P_xs, Ss.T)
+        if r0:
+            P_xx = P_xx + ca.mtimes(S0, S0.T)
+        return m, S, mu_s, P_ss, P_xx, P_xs
+
+    def _build_rhs(self) -> ca.Function:
+        nx, nu, ns, r0, L = self.nx, self.nu, self.ns, self.r0, self.layout
+        z = ca.SX.sym("z", L.nz)
+        u = ca.SX.sym("u", nu)
+        theta = ca.SX.sym("theta", self.n_theta)
+        m, S, mu_s, P_ss, P_xx, P_xs = self._split(z, theta)
+        xs = ca.SX.sym("x", nx)
+        ss = ca.SX.sym("s", ns)
+        fx = self.f(xs, u, ss)
+        F = ca.Function("F", [xs, u, ss], [ca.jacobian(fx, xs), ca.jacobian(fx, ss)])
+        F_x, F_s = F(m, u, mu_s)
+        mdot = self.f(m, u, mu_s)
+        if self.second_order:
+            zaug = ca.vertcat(xs, ss)
+            P = ca.blockcat([[P_xx, P_xs], [P_xs.T, P_ss]])
+            corr = []
+            for i in range(nx):
+                H = ca.Function("H", [xs, u, ss], [ca.hessian(fx[i], zaug)[0]])
+                corr.append(0.5 * ca.trace(ca.mtimes(H(m, u, mu_s), P)))
+            mdot = mdot + ca.vertcat(*corr)
+        Sdot = ca.mtimes(F_x, S)
+        Sdot = ca.horzcat(Sdot[:, :r0], Sdot[:, r0:] + F_s) if r0 else Sdot + F_s
+        zdot = ca.vertcat(mdot, ca.reshape(Sdot, nx * (r0 + ns), 1))
+        return ca.Function("cadet_sens_rhs", [z, u, theta], [zdot], ["z", "u", "theta"], ["zdot"])
+
+    def initial(self, m0, P0_xx=None) -> np.ndarray:
+        """Packed initial vector; ``P0_xx`` must have rank <= r0 (its square root fills S0)."""
+        S = np.zeros((self.nx, self.r0 + self.ns))
+        if self.r0:
+            w, V = np.linalg.eigh(np.asarray(P0_xx, float))
+            idx = np.argsort(w)[::-1][:self.r0]
+            S[:, :self.r0] = V[:, idx] * np.sqrt(np.maximum(w[idx], 0.0))
+        return self.layout.pack(m0, S)
+
+    def covariance(self, z, theta) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(m, P_xx, P_xs)`` from packed vector(s) (nz,) or (nz, N)."""
+        theta = np.asarray(theta, float)
+        P_ss = theta[self.ns:].reshape(self.ns, self.ns, order="F")
+        m, S = self.layout.unpack(z)
+        Ss = S[:, self.r0:]
+        P_xs = np.einsum("ij...,jk->ik...", Ss, P_ss)
+        P_xx = np.einsum("ij...,kj...->ik...", P_xs, Ss)
+        if self.r0:
+            S0 = S[:, :self.r0]
+            P_xx = P_xx + np.einsum("ij...,kj...->ik...", S0, S0)
+        return m, P_xx, P_xs
+
+    def variance_of_state(self, z, theta, i: int):
+        """Symbolic ``P_xx[i, i]`` of a packed CasADi vector, without forming P_xx."""
+        _, S, _, P_ss, _, _ = self._split(z, theta)
+        row = S[i, :]
+        var = ca.mtimes(ca.mtimes(row[:, self.r0:], P_ss), row[:, self.r0:].T)
+        if self.r0:
+            var = var + ca.sumsqr(row[:, :self.r0])
+        return var
+
+    interval = CadetSystem.interval
+    propagate = CadetSystem.propagate
+
+    def output_moments(self, c: ca.Function, *, name: str = "moments") -> ca.Function:
+        """As :meth:`CadetSystem.output_moments`; the variance is ``|g S_w|^2`` in whitened form."""
+        nx, ns, r0, L = self.nx, self.ns, self.r0, self.layout
+        z = ca.SX.sym("z", L.nz)
+        u = ca.SX.sym("u", self.nu)
+        theta = ca.SX.sym("theta", self.n_theta)
+        m, S, mu_s, P_ss, _, _ = self._split(z, theta)
+        xs = ca.SX.sym("x", nx)
+        ss = ca.SX.sym("s", ns)
+        cx = c(xs, u, ss)
+        G = ca.Function("G", [xs, u, ss], [cx, ca.jacobian(cx, xs), ca.jacobian(cx, ss)])
+        mu, Jx, Js = G(m, u, mu_s)
+        # dc = Jx S w + Js ds with w = [xi; ds]: gradient w.r.t. w, then its covariance
+        Gw = ca.mtimes(Jx, S)
+        Gs = Gw[:, r0:] + Js
+        var = ca.sum2(ca.mtimes(Gs, P_ss) * Gs)
+        if r0:
+            var = var + ca.sum2(Gw[:, :r0] ** 2)
+        return ca.Function(name, [z, u, theta], [mu, var], ["z", "u", "theta"], ["mu", "var"])

@@ -114,3 +114,38 @@ def test_output_moments_gradient_form():
     g1 = np.array([0.0, 1.0, 0.0])
     np.testing.assert_allclose(np.asarray(mu).ravel(), [m[0] ** 2 + 0.3, m[1]], rtol=1e-12)
     np.testing.assert_allclose(np.asarray(var).ravel(), [g0 @ P @ g0, g1 @ P @ g1], rtol=1e-12)
+
+
+@pytest.mark.parametrize("second_order", [False, True])
+def test_sensitivity_form_equals_covariance_form(second_order):
+    # Nonlinear in the augmented state (stiffness times position), rank-1 initial covariance:
+    # both forms solve the same moment equations.
+    from solvers.uncertainty.cadet import CadetSensitivity
+
+    x = ca.SX.sym("x", 2)
+    u = ca.SX.sym("u", 1)
+    s = ca.SX.sym("s", 2)
+    f = ca.Function("f", [x, u, s], [ca.vertcat(x[1], -4.0 * (1 + s[0]) * x[0] - 0.3 * (1 + s[1]) * x[1] ** 3 + u[0])])
+    P0 = np.outer([0.1, -0.05], [0.1, -0.05])
+    theta = CadetSystem.theta([0.02, -0.1], np.diag([0.01, 0.04]))
+    t = np.linspace(0, 3, 31)
+    U = np.sin(t)[None, :]
+    full = CadetSystem(f, nx=2, nu=1, ns=2, second_order=second_order)
+    Zf, _ = full.propagate(z0=full.layout.pack([1.0, 0.0], P0, np.zeros((2, 2))), controls=U, t_nodes=t,
+                           theta=theta, substeps=6)
+    sens = CadetSensitivity(f, nx=2, nu=1, ns=2, r0=1, second_order=second_order)
+    Zs, _ = sens.propagate(z0=sens.initial([1.0, 0.0], P0), controls=U, t_nodes=t, theta=theta, substeps=6)
+    m1, Pxx1, Pxs1 = full.layout.unpack(Zf)
+    m2, Pxx2, Pxs2 = sens.covariance(Zs, theta)
+    assert sens.layout.nz == 8 and full.layout.nz == 9
+    # RK4 of the two ODE systems agree to the integration error only
+    np.testing.assert_allclose(m2, m1, rtol=0, atol=1e-7)
+    np.testing.assert_allclose(Pxx2, Pxx1, rtol=0, atol=1e-7)
+    np.testing.assert_allclose(Pxs2, Pxs1, rtol=0, atol=1e-7)
+    assert np.max(Pxx1[0, 0]) > 1e-3
+    # output moments agree too
+    c = ca.Function("c", [x, u, s], [x[0] * x[1] + s[1]])
+    mu1, v1 = full.output_moments(c).map(t.size)(Zf, U, theta)
+    mu2, v2 = sens.output_moments(c).map(t.size)(Zs, U, theta)
+    np.testing.assert_allclose(np.asarray(v2), np.asarray(v1), rtol=0, atol=1e-7)
+    np.testing.assert_allclose(np.asarray(mu2), np.asarray(mu1), rtol=0, atol=1e-7)
