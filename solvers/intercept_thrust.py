@@ -48,11 +48,11 @@ MU_EARTH = 3.986004418e14
 class MeshOptions:
     """Collocation mesh and refinement controls."""
 
-    segments: int = 12                # initial segments
+    segments: int = 24                # initial segments
     nodes: int = 8                    # LGL nodes per segment
     refine: bool = True
     miss_tolerance_m: float = 100.0   # stop refining once the re-propagated miss is below this
-    max_refinements: int = 6
+    max_refinements: int = 3
     max_segments: int = 80
     max_iterations: int = 3000        # IPOPT iterations per solve
 
@@ -125,23 +125,77 @@ def _dynamics_function() -> ca.Function:
     return ca.Function("hill", [x, u, p], [rm.dynamics_casadi(x, u, p[0], p[1])])
 
 
-def _build(segments: int, nodes: int, max_iter: int) -> NLPSolver:
-    K = segments * nodes
+@dataclass(frozen=True)
+class _Layout:
+    """Segments grouped into arcs whose durations may be NLP variables.
+
+    Stage 1 (fixed mesh): one arc per segment, durations fixed, throttle free.
+    Stage 2 (switch times free): an arc per coast or burn, durations free
+    (their sum is 1), throttle fixed to 0 or 1 on each arc, so the jumps sit
+    exactly on arc boundaries and the NLP is smooth.
+    """
+
+    nodes: int
+    arc_of_segment: tuple[int, ...]
+    rho: tuple[float, ...]              # segment share of its arc
+    sigma: tuple[float, ...]            # arc durations (fractions of tf), initial or fixed
+    free_arcs: bool
+    throttle: tuple[float | None, ...]  # per arc: None = free in [0, 1], else fixed
+
+    @classmethod
+    def fixed(cls, mesh: Mesh) -> "_Layout":
+        S = mesh.segments
+        return cls(mesh.nodes, tuple(range(S)), (1.0,) * S, tuple(mesh.fractions.tolist()), False, (None,) * S)
+
+    @property
+    def segments(self) -> int:
+        return len(self.arc_of_segment)
+
+    @property
+    def arcs(self) -> int:
+        return len(self.sigma)
+
+    def mesh(self, sigma=None) -> Mesh:
+        sig = np.asarray(self.sigma if sigma is None else sigma, float)
+        h = sig[list(self.arc_of_segment)] * np.asarray(self.rho)
+        b = np.concatenate([[0.0], np.cumsum(h)])
+        b = b / b[-1]
+        # zero-length arcs give repeated boundaries; keep them strictly increasing
+        b = np.maximum.accumulate(b + np.arange(b.size) * 1e-12)
+        b = b / b[-1]
+        return Mesh(tuple(b.tolist()), self.nodes)
+
+    def key(self) -> tuple:
+        return (self.nodes, self.arc_of_segment, self.free_arcs)
+
+
+def _build(layout: _Layout, max_iter: int) -> NLPSolver:
+    S, N, A = layout.segments, layout.nodes, layout.arcs
+    K = S * N
     X = ca.SX.sym("X", rm.NX, K)
     U = ca.SX.sym("U", rm.NU, K)
     tf = ca.SX.sym("tf")
-    frac = ca.SX.sym("frac", 1, segments)
+    sigma = ca.SX.sym("sigma", A)
+    rho = ca.SX.sym("rho", 1, S)
     eng = ca.SX.sym("eng", 2)
+    idx = list(layout.arc_of_segment)
+    seg_dur = tf * sigma[idx].T * rho
     defects, cont = collocation_constraints(dynamics=_dynamics_function(), X=X, U=U, params=eng,
-                                            seg_duration=frac * tf,
-                                            nodes=nodes, segments=segments)
+                                            seg_duration=seg_dur, nodes=N, segments=S)
     dir2 = ca.sum1(U[1:, :] ** 2)
     g = ca.vertcat(ca.vec(defects), ca.vec(cont), ca.vec(dir2))
-    w = ca.vertcat(ca.vec(X), ca.vec(U), tf)
-    nlp = {"x": w, "f": -X[6, K - 1], "g": g, "p": ca.vertcat(ca.vec(frac), eng)}
-    return NLPSolver(nlp, name=f"intercept_lgl_{segments}x{nodes}",
-                     ipopt={"max_iter": max_iter, "tol": 1e-9, "acceptable_tol": 1e-7,
-                            "acceptable_iter": 10})
+    if layout.free_arcs:   # with fixed arcs the sum is data, and a constant row would break LICQ
+        g = ca.vertcat(g, ca.sum1(sigma))
+    w = ca.vertcat(ca.vec(X), ca.vec(U), tf, sigma)
+    nlp = {"x": w, "f": -X[6, K - 1], "g": g, "p": ca.vertcat(ca.vec(rho), eng)}
+    ipopt = {"max_iter": max_iter, "tol": 1e-9, "acceptable_tol": 1e-7, "acceptable_iter": 10}
+    if layout.free_arcs:
+        # stage 2 starts next to the optimum: a small barrier keeps IPOPT from
+        # wandering off to another switching structure in its first steps
+        ipopt.update({"mu_init": 1e-5, "bound_push": 1e-6, "bound_frac": 1e-6})
+    solver = NLPSolver(nlp, name=f"intercept_lgl_{S}x{N}_{A}arcs", ipopt=ipopt)
+    solver.g_fn = ca.Function("g", [w, nlp["p"]], [g])
+    return solver
 
 
 @dataclass
@@ -175,8 +229,9 @@ def _scale(problem: FiniteThrustProblem) -> _Scaled:
                    tf_hi=problem.tf_max_s / sc.time_s, n=1.0 / sc.time_s)
 
 
-def _bounds(mesh: Mesh, s: _Scaled, free_tf: bool):
-    K = mesh.total_nodes
+def _bounds(layout: _Layout, s: _Scaled, free_tf: bool):
+    S, N, A = layout.segments, layout.nodes, layout.arcs
+    K = S * N
     big = 50.0
     lbX = np.tile(np.array([-big] * 6 + [s.m_dry])[:, None], (1, K))
     ubX = np.tile(np.array([big] * 6 + [1.0])[:, None], (1, K))
@@ -184,24 +239,30 @@ def _bounds(mesh: Mesh, s: _Scaled, free_tf: bool):
     lbX[:3, -1] = ubX[:3, -1] = 0.0
     lbU = np.tile(np.array([0.0, -1.0, -1.0, -1.0])[:, None], (1, K))
     ubU = np.tile(np.array([1.0, 1.0, 1.0, 1.0])[:, None], (1, K))
+    for k, a in enumerate(layout.arc_of_segment):
+        if layout.throttle[a] is not None:
+            lbU[0, k * N:(k + 1) * N] = ubU[0, k * N:(k + 1) * N] = layout.throttle[a]
     lo, hi = (s.tf_lo, s.tf_hi) if free_tf else (s.tf, s.tf)
-    lbx = np.concatenate([lbX.ravel(order="F"), lbU.ravel(order="F"), [lo]])
-    ubx = np.concatenate([ubX.ravel(order="F"), ubU.ravel(order="F"), [hi]])
-    ng = rm.NX * K + rm.NX * (mesh.segments - 1)
-    lbg = np.concatenate([np.zeros(ng), np.full(K, -np.inf)])
-    ubg = np.concatenate([np.zeros(ng), np.ones(K)])
+    sig = np.asarray(layout.sigma, float)
+    lbs, ubs = (np.zeros(A), np.ones(A)) if layout.free_arcs else (sig, sig)
+    lbx = np.concatenate([lbX.ravel(order="F"), lbU.ravel(order="F"), [lo], lbs])
+    ubx = np.concatenate([ubX.ravel(order="F"), ubU.ravel(order="F"), [hi], ubs])
+    ng = rm.NX * K + rm.NX * (S - 1)
+    one = [1.0] if layout.free_arcs else []
+    lbg = np.concatenate([np.zeros(ng), np.full(K, -np.inf), one])
+    ubg = np.concatenate([np.zeros(ng), np.ones(K), one])
     return lbx, ubx, lbg, ubg
 
 
-def _unpack(w: np.ndarray, mesh: Mesh):
-    K = mesh.total_nodes
+def _unpack(w: np.ndarray, layout: _Layout):
+    K = layout.segments * layout.nodes
     X = w[: rm.NX * K].reshape((rm.NX, K), order="F")
     U = w[rm.NX * K: (rm.NX + rm.NU) * K].reshape((rm.NU, K), order="F")
-    return X, U, float(w[-1])
+    return X, U, float(w[(rm.NX + rm.NU) * K]), w[(rm.NX + rm.NU) * K + 1:]
 
 
-def _pack(X, U, tf):
-    return np.concatenate([X.ravel(order="F"), U.ravel(order="F"), [tf]])
+def _pack(X, U, tf, sigma):
+    return np.concatenate([X.ravel(order="F"), U.ravel(order="F"), [tf], np.asarray(sigma, float)])
 
 
 # ----------------------------------------------------------------------------- guesses
@@ -252,18 +313,22 @@ def _guess_impulsive(guess: ImpulsiveGuess, problem: FiniteThrustProblem, s: _Sc
     for i, t in enumerate(times):
         u, d = control(t)
         U[0, i], U[1:, i] = u, d
-    # Put mesh boundaries on the guessed switches so the first solve starts well resolved.
-    b = np.asarray(mesh.boundaries) * s.tf
-    for ts in (t_on, t_off):
-        if 0.0 < ts < s.tf:
+    mesh2 = _snap(mesh, [t_on / s.tf, t_off / s.tf])
+    if mesh2 != mesh:
+        return _guess_impulsive(guess, problem, s, mesh2)
+    return X, U, mesh
+
+
+def _snap(mesh: Mesh, switches) -> Mesh:
+    """Move the nearest interior boundary onto each switch (normalized times), so the
+    first solve starts with the thrust jumps on segment edges."""
+    b = np.asarray(mesh.boundaries, float).copy()
+    for ts in switches:
+        if 0.0 < ts < 1.0 and b.size > 2:
             k = int(np.argmin(np.abs(b[1:-1] - ts))) + 1
             b[k] = ts
-    b = np.sort(b) / s.tf
-    if np.all(np.diff(b) > 0):
-        mesh2 = Mesh(tuple(b.tolist()), mesh.nodes)
-        if mesh2 != mesh:
-            return _guess_impulsive(guess, problem, s, mesh2)
-    return X, U, mesh
+    b = np.sort(b)
+    return Mesh(tuple(b.tolist()), mesh.nodes) if np.all(np.diff(b) > 0) else mesh
 
 
 def _guess_trajectory(guess: TrajectoryGuess, problem: FiniteThrustProblem, s: _Scaled, mesh: Mesh, tf: float):
@@ -272,14 +337,17 @@ def _guess_trajectory(guess: TrajectoryGuess, problem: FiniteThrustProblem, s: _
     scale = np.array([s.sc.length_m] * 3 + [s.sc.speed_mps] * 3 + [problem.mass_kg])[:, None]
     st = st / scale
     thr = np.asarray(guess.thrust_n, float) / s.sc.force_n
-    times = mesh.node_fractions().ravel() * tf * (t[-1] / tf if t[-1] > 0 else 1.0)
+    on = np.linalg.norm(np.asarray(guess.thrust_n, float), axis=0) > 0.5 * problem.max_thrust_n
+    flips = np.flatnonzero(on[1:] != on[:-1])
+    mesh = _snap(mesh, [0.5 * (t[i] + t[i + 1]) / t[-1] for i in flips])
+    times = mesh.node_fractions().ravel() * t[-1]
     X = np.stack([np.interp(times, t, row) for row in st])
     T = np.stack([np.interp(times, t, row) for row in thr])
     mag = np.linalg.norm(T, axis=0)
     U = np.zeros((rm.NU, times.size))
     U[0] = np.clip(mag / s.tmax, 0.0, 1.0)
     U[1:] = np.where(mag > 1e-9, T / np.maximum(mag, 1e-300), np.array([[0.0], [1.0], [0.0]]))
-    return X, U, t[-1]
+    return X, U, t[-1], mesh
 
 
 def _guess_cold(s: _Scaled, mesh: Mesh, tf: float):
@@ -293,33 +361,92 @@ def _guess_cold(s: _Scaled, mesh: Mesh, tf: float):
     return X, U
 
 
-def _regrid(X, U, old: Mesh, new: Mesh, switch_segments=()):
-    """Interpolate a solution onto a refined mesh.
-
-    Pieces of a segment that was split at a thrust switch start bang-bang
-    (throttle 0 or 1 by their mean), not with the old polynomial's overshoot.
-    """
+def _resample(X, U, old: Mesh, new: Mesh, layout: _Layout):
+    """Interpolate a solution onto a new mesh; throttle set where the layout fixes it."""
     vals = np.concatenate([X, U]).reshape((rm.NX + rm.NU, old.segments, old.nodes))
     s_new = new.node_fractions()
-    out = np.empty((rm.NX + rm.NU, new.segments, new.nodes))
-    eps = 1e-12
-    ob = np.asarray(old.boundaries)
-    w = lgl_weights(new.nodes)
-    for k in range(new.segments):
-        # evaluate strictly inside so a node on an old boundary takes its value
-        # from the old segment that covers the new one
-        ss = np.clip(s_new[k], new.boundaries[k] + eps, new.boundaries[k + 1] - eps)
-        out[:, k, :] = old.interpolate(vals, ss)
-        parent = int(np.clip(np.searchsorted(ob, 0.5 * (new.boundaries[k] + new.boundaries[k + 1])) - 1,
-                             0, old.segments - 1))
-        if parent in switch_segments:
-            out[rm.NX, k, :] = 1.0 if 0.5 * w @ out[rm.NX, k, :] > 0.5 else 0.0
-    out = out.reshape((rm.NX + rm.NU, -1))
+    b = np.asarray(new.boundaries)
+    span = np.maximum(np.diff(b), 0.0)[:, None]
+    # nodes on a new segment's edges are nudged inside so that, where an old
+    # segment edge coincides, the value comes from the covering old segment
+    ss = np.clip(s_new, b[:-1, None] + 1e-9 * span, b[1:, None] - 1e-9 * span)
+    out = old.interpolate(vals, ss.ravel())
     Xn, Un = out[: rm.NX], out[rm.NX:]
     Un[0] = np.clip(Un[0], 0.0, 1.0)
+    for k, a in enumerate(layout.arc_of_segment):
+        if layout.throttle[a] is not None:
+            Un[0, k * layout.nodes:(k + 1) * layout.nodes] = layout.throttle[a]
     nrm = np.linalg.norm(Un[1:], axis=0)
-    Un[1:] = Un[1:] / np.maximum(nrm, 1e-9)
+    Un[1:] = np.where(nrm > 1e-9, Un[1:] / np.maximum(nrm, 1e-300), np.array([[0.0], [1.0], [0.0]]))
     return Xn, Un
+
+
+def _detect_arcs(mesh: Mesh, U, opts: MeshOptions) -> _Layout:
+    """Coast/burn arcs from a fixed-mesh solution's throttle (impulse-preserving).
+
+    Each run of segments carrying thrust becomes one full-thrust arc with the
+    same total impulse, centred on the impulse centroid.  A burn arc at t=0 is
+    always offered (it may shrink to zero length): the initial-state burn is
+    typical of these transfers and too short to show on a coarse mesh.
+    """
+    S, N = mesh.segments, mesh.nodes
+    w = lgl_weights(N)
+    u = U[0].reshape((S, N))
+    sf = mesh.node_fractions()
+    h = mesh.fractions
+    q = 0.5 * (u @ w)
+    burns = []
+    k = 0
+    while k < S:
+        if q[k] > 0.02:
+            j = k
+            while j + 1 < S and q[j + 1] > 0.02:
+                j += 1
+            imp = float(np.sum(q[k:j + 1] * h[k:j + 1]))
+            cen = float(np.sum(0.5 * h[k:j + 1, None] * w[None, :] * u[k:j + 1] * sf[k:j + 1])) / max(imp, 1e-12)
+            burns.append([max(cen - imp / 2, 0.0), min(cen + imp / 2, 1.0)])
+            k = j + 1
+        else:
+            k += 1
+    if not burns or burns[0][0] > 1e-9:
+        burns.insert(0, [0.0, max(min(float(q[0] * h[0]), 0.5 * h[0]), 1e-3)])
+    merged = [burns[0]]
+    for bn in burns[1:]:
+        if bn[0] <= merged[-1][1] + 1e-6:
+            merged[-1][1] = max(merged[-1][1], bn[1])
+        else:
+            merged.append(bn)
+    arcs = []   # (throttle, start, end)
+    t = 0.0
+    for b0, b1 in merged:
+        if b0 > t + 1e-9:
+            arcs.append((0.0, t, b0))
+        arcs.append((1.0, b0, b1))
+        t = b1
+    if t < 1.0 - 1e-9:
+        arcs.append((0.0, t, 1.0))
+    coast_max = 1.0 / max(opts.segments, 1)
+    burn_max = 0.5 * coast_max
+    arc_of, rho, sigma, thr = [], [], [], []
+    for a, (th, t0, t1) in enumerate(arcs):
+        n = max(1, int(np.ceil((t1 - t0) / (burn_max if th else coast_max) - 1e-9)))
+        arc_of += [a] * n
+        rho += [1.0 / n] * n
+        sigma.append(t1 - t0)
+        thr.append(th)
+    return _Layout(N, tuple(arc_of), tuple(rho), tuple(sigma), True, tuple(thr))
+
+
+def _split_segments(layout: _Layout, split: np.ndarray) -> _Layout:
+    arc_of, rho = [], []
+    for k, a in enumerate(layout.arc_of_segment):
+        if split[k]:
+            arc_of += [a, a]
+            rho += [layout.rho[k] / 2] * 2
+        else:
+            arc_of.append(a)
+            rho.append(layout.rho[k])
+    return replace(layout, arc_of_segment=tuple(arc_of), rho=tuple(rho))
 
 
 # ----------------------------------------------------------------------------- analysis
@@ -513,7 +640,14 @@ def _burns(t, u, mesh: Mesh, thrust_mag, c, m) -> list[dict]:
 def solve_finite_thrust(problem: FiniteThrustProblem, *, initial_guess=None,
                         on_progress: ProgressFn | None = None,
                         should_stop: StopFn | None = None) -> FiniteThrustSolution:
-    """Fuel-optimal finite-thrust interception; see the module docstring."""
+    """Fuel-optimal finite-thrust interception; see the module docstring.
+
+    Stage 1 solves on a fixed mesh (throttle free in [0, 1]); with refinement
+    on, stage 2 places arc boundaries on the thrust switches and frees their
+    times (throttle fixed per arc), then splits the segments whose
+    re-propagated defect is large until the inertial re-propagation misses by
+    less than ``mesh.miss_tolerance_m``.
+    """
     t_start = time.perf_counter()
     s = _scale(problem)
     opts = problem.mesh
@@ -522,38 +656,44 @@ def solve_finite_thrust(problem: FiniteThrustProblem, *, initial_guess=None,
     if isinstance(initial_guess, ImpulsiveGuess):
         X, U, mesh = _guess_impulsive(initial_guess, problem, s, mesh)
     elif isinstance(initial_guess, TrajectoryGuess):
-        X, U, tf_g = _guess_trajectory(initial_guess, problem, s, mesh, tf)
+        X, U, tf_g, mesh = _guess_trajectory(initial_guess, problem, s, mesh, tf)
         if problem.free_final_time:
             tf = float(np.clip(tf_g, s.tf_lo, s.tf_hi))
     elif initial_guess is None:
         X, U = _guess_cold(s, mesh, tf)
     else:
         raise TypeError(f"unsupported initial guess {type(initial_guess).__name__}")
+    layout = _Layout.fixed(mesh)
+    sigma = np.asarray(layout.sigma)
 
     history: list[dict] = []
     iterations = 0
     build_time = solve_time = 0.0
-    rounds = opts.max_refinements + 1 if opts.refine else 1
+    rounds = opts.max_refinements + 2 if opts.refine else 1
     res = None
+    best = None
     verification: dict = {}
     for r in range(rounds):
-        key = ("intercept_lgl", mesh.segments, mesh.nodes, opts.max_iterations)
-        solver, cached = cached_solver(key, lambda: _build(mesh.segments, mesh.nodes, opts.max_iterations))
+        solver, cached = cached_solver(("intercept_lgl", layout.key(), opts.max_iterations),
+                                       lambda: _build(layout, opts.max_iterations))
         if not cached:
             build_time += solver.build_time_s
-        lbx, ubx, lbg, ubg = _bounds(mesh, s, problem.free_final_time)
-        x0 = np.clip(_pack(X, U, tf), lbx, ubx)
+        lbx, ubx, lbg, ubg = _bounds(layout, s, problem.free_final_time)
+        x0 = np.clip(_pack(X, U, tf, sigma), lbx, ubx)
         span = (0.9 * r / rounds, 0.9 * (r + 1) / rounds)
+        stage = "stage 2 (switch times free)" if layout.free_arcs else "stage 1 (fixed mesh)"
         res = solver.solve(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg,
-                           p=np.concatenate([mesh.fractions, [s.tmax, s.c]]),
+                           p=np.concatenate([layout.rho, [s.tmax, s.c]]),
                            on_progress=on_progress, should_stop=should_stop, progress_span=span,
-                           label=f"mesh {r + 1} ({mesh.segments}x{mesh.nodes}) IPOPT",
-                           expected_iterations=150)
+                           label=f"{stage}, {layout.segments}x{layout.nodes} nodes: IPOPT",
+                           expected_iterations=100)
         iterations += res.status.iterations
         solve_time += res.status.solve_time_s
-        X, U, tf = _unpack(res.x, mesh)
-        entry = {"segments": mesh.segments, "nodes": mesh.nodes, "iterations": res.status.iterations,
-                 "solver_status": res.status.solver_status,
+        X, U, tf, sigma = _unpack(res.x, layout)
+        layout = replace(layout, sigma=tuple(np.asarray(sigma).tolist()))
+        mesh = layout.mesh(sigma)
+        entry = {"stage": 2 if layout.free_arcs else 1, "segments": layout.segments, "nodes": layout.nodes,
+                 "iterations": res.status.iterations, "solver_status": res.status.solver_status,
                  "final_mass_kg": float(X[6, -1] * problem.mass_kg)}
         if res.status.outcome is Outcome.CANCELLED:
             history.append(entry)
@@ -563,28 +703,37 @@ def solve_finite_thrust(problem: FiniteThrustProblem, *, initial_guess=None,
         history.append(entry)
         if on_progress is not None:
             on_progress(0.9 * (r + 1) / rounds,
-                        f"mesh {r + 1}: {mesh.segments} segments, re-propagated miss "
+                        f"{stage}: {layout.segments} segments, re-propagated miss "
                         f"{verification['miss_distance_m']:.1f} m")
-        if not res.status.ok or not opts.refine:
+        if not res.status.ok:
+            if best is not None:
+                # a refinement round that fails keeps the last converged mesh's answer
+                entry["discarded"] = True
+                res, X, U, tf, mesh, layout, verification = best
             break
-        flag_sw, where = _switch_splits(mesh, U)
-        if verification["miss_distance_m"] < opts.miss_tolerance_m and not np.any(flag_sw):
+        best = (res, X, U, tf, mesh, layout, verification)
+        if not opts.refine or r == rounds - 1:
             break
-        if r == rounds - 1 or mesh.segments >= opts.max_segments:
+        q = 0.5 * U[0].reshape((mesh.segments, -1)) @ lgl_weights(mesh.nodes)
+        mixed = int(np.sum((q > 0.02) & (q < 0.98)))
+        entry["mixed_throttle_segments"] = mixed
+        if verification["miss_distance_m"] < opts.miss_tolerance_m and mixed == 0:
             break
-        d = _segment_defects(s, mesh, X, U, tf)
-        pos_err = np.linalg.norm(d[:3], axis=0) * s.sc.length_m
-        # The miss is roughly the sum of segment defects carried to tf; ask each
-        # segment for a share of the tolerance.
-        flag_def = pos_err > 0.1 * opts.miss_tolerance_m / max(mesh.segments, 1) ** 0.5
-        new = refine_mesh(mesh, split=flag_sw | flag_def, split_at=where, max_segments=opts.max_segments)
-        entry["max_segment_defect_m"] = float(np.max(pos_err))
-        entry["split_switch"] = int(np.sum(flag_sw))
-        entry["split_defect"] = int(np.sum(flag_def & ~flag_sw))
-        if new == mesh:
+        if layout.segments >= opts.max_segments:
             break
-        X, U = _regrid(X, U, mesh, new, switch_segments=set(np.flatnonzero(flag_sw).tolist()))
-        mesh = new
+        if mixed:
+            # move segment edges onto the (impulse-preserving) switch estimates;
+            # throttle stays free so the NLP can still move the switches
+            new_layout = _Layout.fixed(_detect_arcs(mesh, U, opts).mesh())
+        else:
+            d = _segment_defects(s, mesh, X, U, tf)
+            pos_err = np.linalg.norm(d[:3], axis=0) * s.sc.length_m
+            entry["max_segment_defect_m"] = float(np.max(pos_err))
+            split = pos_err >= min(0.25 * float(np.max(pos_err)), 0.05 * opts.miss_tolerance_m)
+            new_layout = _Layout.fixed(refine_mesh(mesh, split=split, max_segments=opts.max_segments))
+        new_mesh = new_layout.mesh()
+        X, U = _resample(X, U, mesh, new_mesh, new_layout)
+        layout, sigma = new_layout, np.asarray(new_layout.sigma)
 
     status = replace(res.status, iterations=iterations, build_time_s=build_time, solve_time_s=solve_time)
     sol = FiniteThrustSolution(status=status, history=history)
@@ -599,9 +748,10 @@ def solve_finite_thrust(problem: FiniteThrustProblem, *, initial_guess=None,
     sol.verification = verification
     sol.mesh = {"segments": mesh.segments, "nodes_per_segment": mesh.nodes, "total_nodes": mesh.total_nodes,
                 "boundaries_s": (np.asarray(mesh.boundaries) * sol.tf_s).tolist(),
-                "refinements": len(history) - 1}
+                "switch_times_free": layout.free_arcs, "meshes_solved": len(history)}
     if res.status.outcome is not Outcome.CANCELLED:
-        lam_tf = float(res.lam_x[-1])
+        K = layout.segments * layout.nodes
+        lam_tf = float(res.lam_x[(rm.NX + rm.NU) * K])
         sol.optimality, sol._diag = _optimality(s, mesh, X, U, tf, res.lam_g, lam_tf, problem.free_final_time)
         sol.burns, impulse = _burns(t, U[0], mesh, problem.max_thrust_n, problem.exhaust_speed_mps, problem.mass_kg)
         sol.optimality["full_thrust_equivalent_time_s"] = impulse
