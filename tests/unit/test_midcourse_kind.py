@@ -6,25 +6,7 @@ from pydantic import ValidationError
 
 from app.kinds.midcourse import PRESETS, SPEC, Params, run
 from app.params import deep_merge
-
-
-class Ctx:
-    job_id = "test"
-
-    def __init__(self, stop_after=None):
-        self.messages = []
-        self.stop_after = stop_after
-        self.polls = 0
-
-    def progress(self, fraction, message):
-        self.messages.append((fraction, message))
-
-    def should_stop(self):
-        self.polls += 1
-        return self.stop_after is not None and self.polls >= self.stop_after
-
-    def load_result(self, job_id):
-        raise LookupError(job_id)
+from tests.support import RecordingContext
 
 
 def preset(name, **overrides):
@@ -71,7 +53,7 @@ def test_bad_params_name_the_rule(params, rule):
 
 
 def test_table3_preset_runs_and_is_json():
-    ctx = Ctx()
+    ctx = RecordingContext()
     out = run(preset("upper-stage-table3"), ctx)
     assert out.status == "succeeded"
     res = json.loads(json.dumps(out.result, allow_nan=False))
@@ -88,7 +70,7 @@ def test_table3_preset_runs_and_is_json():
 
 
 def test_small_optimize_run_result():
-    ctx = Ctx()
+    ctx = RecordingContext()
     out = run(preset("upper-stage-two-corrections", population=12, generations=6, seed=5), ctx)
     assert out.status == "succeeded"
     res = json.loads(json.dumps(out.result, allow_nan=False))
@@ -102,7 +84,7 @@ def test_small_optimize_run_result():
 
 
 def test_cancelled_run_keeps_a_partial_front():
-    out = run(preset("upper-stage-two-corrections", population=12, generations=50), Ctx(stop_after=2))
+    out = run(preset("upper-stage-two-corrections", population=12, generations=50), RecordingContext(stop_after=2))
     assert out.status == "cancelled"
     assert out.result["generations"] == 2
     assert out.result["pareto_front"]
@@ -111,7 +93,7 @@ def test_cancelled_run_keeps_a_partial_front():
 
 def test_monte_carlo_result_has_both_statistics():
     out = run(preset("upper-stage-table3", schedules=[[1000.0, 8000.0]],
-                     dispersion={"samples": 50, "percentile": 95.0, "seed": 2}), Ctx())
+                     dispersion={"samples": 50, "percentile": 95.0, "seed": 2}), RecordingContext())
     assert out.status == "succeeded"
     row = out.result["schedules"][0]
     assert row["percentile"]["position_error_m"] > row["mean"]["position_error_m"]
@@ -121,7 +103,7 @@ def test_monte_carlo_result_has_both_statistics():
 
 def test_monte_carlo_optimize_reports_both_statistics_on_the_front():
     out = run(preset("upper-stage-two-corrections", population=8, generations=3,
-                     dispersion={"samples": 10, "percentile": 90.0, "statistic": "mean"}), Ctx())
+                     dispersion={"samples": 10, "percentile": 90.0, "statistic": "mean"}), RecordingContext())
     assert out.status == "succeeded"
     res = json.loads(json.dumps(out.result, allow_nan=False))
     assert res["settings"]["objectives"] == "mean"

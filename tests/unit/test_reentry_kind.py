@@ -6,30 +6,7 @@ from pydantic import ValidationError
 
 from app.kinds.reentry import PRESETS, SPEC, Params, run
 from app.params import deep_merge
-
-
-class Ctx:
-    """A job context without the service: results kept in a dict, stop after k polls."""
-
-    job_id = "test"
-
-    def __init__(self, stored=None, stop_after=None):
-        self.messages = []
-        self.stored = stored or {}
-        self.stop_after = stop_after
-        self.polls = 0
-
-    def progress(self, fraction, message):
-        self.messages.append((fraction, message))
-
-    def should_stop(self):
-        self.polls += 1
-        return self.stop_after is not None and self.polls >= self.stop_after
-
-    def load_result(self, job_id):
-        if job_id not in self.stored:
-            raise LookupError(f"job {job_id} not found or not succeeded")
-        return self.stored[job_id]
+from tests.support import RecordingContext
 
 
 def preset(name, **overrides):
@@ -39,7 +16,7 @@ def preset(name, **overrides):
 
 @pytest.fixture(scope="module")
 def betts():
-    ctx = Ctx()
+    ctx = RecordingContext()
     out = run(preset("betts-max-crossrange"), ctx)
     return out, ctx
 
@@ -94,7 +71,7 @@ def test_betts_preset_result(betts):
 def test_infeasible_case_fails_fast_with_diagnosis():
     import time
     t0 = time.perf_counter()
-    out = run(preset("shuttle-min-heat-load-terminal"), Ctx())
+    out = run(preset("shuttle-min-heat-load-terminal"), RecordingContext())
     elapsed = time.perf_counter() - t0
     assert out.status == "failed"
     assert out.error["code"] == "infeasible"
@@ -108,7 +85,7 @@ def test_infeasible_case_fails_fast_with_diagnosis():
 def test_warm_start_from_stored_result(betts):
     out, _ = betts
     stored = json.loads(json.dumps(out.result))
-    ctx = Ctx(stored={"job-1": stored})
+    ctx = RecordingContext(stored={"job-1": stored})
     p = preset("betts-max-crossrange", grid={"intervals": 60}, initial_guess={"from_job": "job-1"})
     warm = run(p, ctx)
     assert warm.status == "succeeded"
@@ -120,12 +97,12 @@ def test_warm_start_from_stored_result(betts):
 def test_warm_start_from_unknown_job_is_a_clear_failure():
     from app.kinds.base import JobFailure
     with pytest.raises(JobFailure) as exc:
-        run(preset("betts-max-crossrange", initial_guess={"from_job": "nope"}), Ctx())
+        run(preset("betts-max-crossrange", initial_guess={"from_job": "nope"}), RecordingContext())
     assert "initial_guess.from_job" in exc.value.message
 
 
 def test_cancellation_mid_solve():
-    ctx = Ctx(stop_after=5)
+    ctx = RecordingContext(stop_after=5)
     out = run(preset("betts-max-crossrange", grid={"intervals": 40}), ctx)
     assert out.status == "cancelled"
     assert out.error["code"] == "cancelled"
@@ -134,7 +111,7 @@ def test_cancellation_mid_solve():
 
 
 def test_paper000_max_crossrange():
-    out = run(preset("shuttle-max-crossrange"), Ctx())
+    out = run(preset("shuttle-max-crossrange"), RecordingContext())
     assert out.status == "succeeded" and out.result["solver"]["status"] == "Solve_Succeeded"
     assert out.result["final"]["latitude_deg"] == pytest.approx(33.5133, abs=2e-3)
     assert out.result["tf_s"] == pytest.approx(1956.8, abs=1.0)
