@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from solvers.astro.batch import broadcast_pair
+
 _SERIES_Z = 0.1   # |z| below which the Stumpff closed forms cancel; use their series
 _MAX_ITER = 60
 _TOL = 1e-14
@@ -59,15 +61,8 @@ def propagate(mu: float, r0, v0, dt) -> tuple[np.ndarray, np.ndarray]:
     propagated to many times or many states by one time.  Returns (r, v) with
     the broadcast leading shape ((3,) for a single state and time).
     """
-    r0 = np.asarray(r0, dtype=float)
-    v0 = np.asarray(v0, dtype=float)
-    dt = np.asarray(dt, dtype=float)
-    single = r0.ndim == 1 and v0.ndim == 1 and dt.ndim == 0
-    r0b, v0b = np.atleast_2d(r0), np.atleast_2d(v0)
-    n = max(r0b.shape[0], v0b.shape[0], dt.size if dt.ndim else 1)
-    r0b = np.broadcast_to(r0b, (n, 3))
-    v0b = np.broadcast_to(v0b, (n, 3))
-    dtb = np.broadcast_to(np.atleast_1d(dt), (n,)).astype(float)
+    r0b, v0b, dtb, single = broadcast_pair(r0, v0, dt)
+    n = dtb.shape[0]
 
     rn = np.sqrt(np.einsum("ij,ij->i", r0b, r0b))
     vr = np.einsum("ij,ij->i", r0b, v0b) / rn

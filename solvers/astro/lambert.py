@@ -25,6 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from solvers.astro.batch import broadcast_pair
+
 _BATTIN_BAND = 0.01      # |x - 1| below which Lancaster's form loses digits (pykep's threshold)
 _X_TOL_SINGLE = 1e-11    # Householder is third order: a step this small leaves ~1e-16 error
 _X_TOL_MULTI = 1e-11
@@ -151,15 +153,8 @@ def lambert(mu: float, r1, r2, tof, *, revolutions: int = 0, prograde: bool = Tr
     (broadcast against the positions); ``mu`` in m^3/s^2.  The leading shape of
     the input is kept: (3,) in gives (3,) velocities out.
     """
-    r1 = np.asarray(r1, dtype=float)
-    r2 = np.asarray(r2, dtype=float)
-    tof_arr = np.asarray(tof, dtype=float)
-    single = r1.ndim == 1 and r2.ndim == 1 and tof_arr.ndim == 0
-    r1b, r2b = np.atleast_2d(r1), np.atleast_2d(r2)
-    n = max(r1b.shape[0], r2b.shape[0], tof_arr.size if tof_arr.ndim else 1)
-    r1b = np.broadcast_to(r1b, (n, 3))
-    r2b = np.broadcast_to(r2b, (n, 3))
-    tofb = np.broadcast_to(np.atleast_1d(tof_arr), (n,)).astype(float)
+    r1b, r2b, tofb, single = broadcast_pair(r1, r2, tof)
+    n = tofb.shape[0]
     m = int(revolutions)
     if m < 0:
         raise ValueError("revolutions must be >= 0")
