@@ -1,0 +1,281 @@
+"""The ``robust_reentry`` kind's API edge: CADET robust design and Monte Carlo validation (paper 001).
+
+Parameters are those of the ``reentry`` kind (composed from :mod:`app.kinds.reentry`) plus
+``uncertainty``, ``robust`` and ``monte_carlo``; SI and degrees at the edge,
+:mod:`solvers.robust_reentry` works in SI and radians.  The Monte Carlo of both designs runs
+through ``ctx.run_monte_carlo(spec, samples, seed, chunk_size)`` when the worker offers it (fan-out
+over Celery workers), in-process chunk by chunk otherwise; either way the chunks are the same pure
+function of the spec, so the statistics do not depend on where they ran.
+"""
+from __future__ import annotations
+
+import math
+from typing import Literal
+
+from pydantic import Field, model_validator
+
+from app.kinds import reentry as rk
+from app.kinds.base import JobContext, JobFailure, KindSpec, Preset, RunOutcome, StrictModel, outcome_from_status
+
+
+class UncertainParameter(StrictModel):
+    mean: float = Field(0.0, ge=-0.5, le=0.5, description="Mean of the relative error", examples=[0.01])
+    std: float = Field(0.01, ge=0.0, le=0.5, description="Standard deviation of the relative error",
+                       examples=[0.01])
+
+
+class InitialStateStd(StrictModel):
+    altitude_m: float = Field(0.0, ge=0, description="1-sigma entry altitude error", examples=[0.0])
+    longitude_deg: float = Field(0.0, ge=0, description="1-sigma entry longitude error", examples=[0.0])
+    latitude_deg: float = Field(0.0, ge=0, description="1-sigma entry latitude error", examples=[0.0])
+    speed_mps: float = Field(0.0, ge=0, description="1-sigma entry speed error", examples=[0.0])
+    flight_path_deg: float = Field(0.0, ge=0, description="1-sigma entry flight-path error", examples=[0.0])
+    heading_deg: float = Field(0.0, ge=0, description="1-sigma entry heading error", examples=[0.0])
+
+
+class UncertaintyParams(StrictModel):
+    cd: UncertainParameter = Field(default_factory=lambda: UncertainParameter(mean=0.01, std=0.01),
+                                   description="s1 in CD = CD_N (1 + s1), Gaussian, constant over the flight "
+                                   "(paper 001: N(0.01, 0.01^2))")
+    cl: UncertainParameter = Field(default_factory=lambda: UncertainParameter(mean=-0.01, std=0.01),
+                                   description="s2 in CL = CL_N (1 + s2) (paper 001: N(-0.01, 0.01^2))")
+    initial_state_std: InitialStateStd | None = Field(None, description="Optional independent Gaussian "
+                                                      "entry-state dispersions (null: exact entry state, "
+                                                      "as in paper 001)")
+
+
+class SigmaLimits(StrictModel):
+    altitude_m: float | None = Field(4500.0, gt=0, description="Limit on sigma(h_f) (null: none)",
+                                     examples=[4500.0])
+    speed_mps: float | None = Field(250.0, gt=0, description="Limit on sigma(v_f)", examples=[250.0])
+    flight_path_deg: float | None = Field(3.0, gt=0, description="Limit on sigma(gamma_f)", examples=[3.0])
+
+
+class RobustParams(StrictModel):
+    k_objective: float = Field(3.0, ge=0, le=10, description="kJ in max mu(lat_f) - kJ sigma(lat_f)",
+                               examples=[3.0])
+    k_constraint: float = Field(3.0, ge=0, le=10, description="kC in mu(q) + kC sigma(q) <= q_max",
+                                examples=[3.0])
+    sigma_limits: SigmaLimits = Field(default_factory=SigmaLimits, description="Terminal sigma limits")
+    second_order: bool = Field(False, description="Add CADET's second-order mean term 0.5 tr(H P) in "
+                               "the NLP (the reported CADET prediction always includes it)", examples=[False])
+    heat_margin: float = Field(0.0, ge=0, lt=0.2, description="Extra relative margin on the robust "
+                               "heating limit", examples=[0.0])
+    substeps: int = Field(2, ge=1, le=8, description="RK4 steps per interval of the augmented system; "
+                          "the robust heating limit is enforced at each of them", examples=[2])
+
+
+class MonteCarloParams(StrictModel):
+    samples: int = Field(10000, ge=10, le=200000, description="Samples per design", examples=[10000])
+    seed: int = Field(2020, ge=0, description="Seed; sample i always draws the same numbers", examples=[2020])
+    chunk_size: int = Field(2500, ge=10, le=200000, description="Samples per chunk (unit of scale-out)",
+                            examples=[2500])
+    substeps: int = Field(10, ge=2, le=50, description="RK4 steps per NLP interval; also the fine grid "
+                          "on which path limits are checked", examples=[10])
+
+
+def _heat_limited_path() -> rk.PathLimits:
+    return rk.PathLimits(max_heat_rate_w_m2=rk.BETTS_HEAT_LIMIT_W_M2)
+
+
+class Params(rk.Params):
+    objective: Literal["max_crossrange"] = Field("max_crossrange", description="Paper 001 maximizes "
+                                                 "mu(lat_f) - kJ sigma(lat_f); only max_crossrange", examples=["max_crossrange"])
+    path: rk.PathLimits = Field(default_factory=_heat_limited_path, description="Path limits; the "
+                                "heating limit is required (paper 001's active constraint)")
+    uncertainty: UncertaintyParams = Field(default_factory=UncertaintyParams, description="Uncertain parameters")
+    robust: RobustParams = Field(default_factory=RobustParams, description="Robust design settings")
+    monte_carlo: MonteCarloParams = Field(default_factory=MonteCarloParams, description="Monte Carlo validation")
+
+    @model_validator(mode="after")
+    def _robust_consistent(self):
+        if self.path.max_heat_rate_w_m2 is None:
+            raise ValueError("path.max_heat_rate_w_m2 is required for robust_reentry")
+        if self.grid.control != "linear":
+            raise ValueError("grid.control must be 'linear' for robust_reentry")
+        return self
+
+
+PRESETS = [
+    Preset("robust-max-crossrange", "robust_reentry",
+           "Paper 001: Betts heat-limited maximum crossrange (q <= 70 BTU/ft^2/s) with CD = CD_N (1 + s1), "
+           "CL = CL_N (1 + s2), s1 ~ N(0.01, 0.01^2), s2 ~ N(-0.01, 0.01^2); robust design max "
+           "mu(lat_f) - 3 sigma(lat_f), mu(q) + 3 sigma(q) <= limit, terminal means on the requirements, "
+           "sigma limits 4500 m / 250 m/s / 3 deg; validated with 10,000 Monte Carlo runs of each design's "
+           "open-loop controls. Ours vs paper: the paper solved with a pseudospectral method and gives tf "
+           "2200.1 s (DO) / 2289.4 s (RO); this multiple-shooting reimplementation finds a shorter robust "
+           "flight (see the result's tf_s), with the same qualitative findings: the robust design puts "
+           "the terminal means back on the requirements and about halves sigma(lat_f); the sigma limits "
+           "are not active. The paper's 99.33% heating-limit compliance is a node-level figure: "
+           "enforced only at the nodes, the limit is overshot between them (a careful reimplementation got "
+           "99.5% at the nodes but 74% on a fine grid). Here the robust limit is enforced at every RK4 "
+           "substep, and the result reports both heat_rate_kept_fraction (fine grid) and "
+           "heat_rate_kept_fraction_nodes.",
+           {}),
+]
+
+_TERMINAL = (("altitude_m", 0, 1.0), ("longitude_deg", 1, None), ("latitude_deg", 2, None),
+             ("speed_mps", 3, 1.0), ("flight_path_deg", 4, None), ("heading_deg", 5, None))
+_SOLVER_TERMINAL = ("altitude_m", "longitude_rad", "latitude_rad", "speed_mps", "flight_path_rad", "heading_rad")
+
+
+def _f(x) -> float:
+    x = float(x)
+    return x if math.isfinite(x) else 0.0
+
+
+def _problem(params: Params):
+    import numpy as np
+
+    from solvers import robust_reentry as rr
+
+    base = rk._problem(params)
+    unc = params.uncertainty
+    x0_std = None
+    if unc.initial_state_std is not None:
+        s = unc.initial_state_std
+        x0_std = (s.altitude_m, math.radians(s.longitude_deg), math.radians(s.latitude_deg), s.speed_mps,
+                  math.radians(s.flight_path_deg), math.radians(s.heading_deg))
+        if not np.any(np.asarray(x0_std) > 0):
+            x0_std = None
+    r = params.robust
+    lim = r.sigma_limits
+    return rr.RobustReentryProblem(
+        base=base,
+        uncertainty=rr.Uncertainty(s_mean=(unc.cd.mean, unc.cl.mean), s_std=(unc.cd.std, unc.cl.std),
+                                   x0_std=x0_std),
+        robust=rr.RobustSettings(
+            k_objective=r.k_objective, k_constraint=r.k_constraint,
+            sigma_limits={"altitude_m": lim.altitude_m, "speed_mps": lim.speed_mps,
+                          "flight_path_rad": None if lim.flight_path_deg is None else math.radians(lim.flight_path_deg)},
+            second_order=r.second_order, heat_margin=r.heat_margin, substeps=r.substeps))
+
+
+def _mc_block(summary: dict, prediction, objective_k: float) -> dict:
+    """One design's Monte Carlo statistics in API units, CADET's prediction side by side."""
+    import numpy as np
+
+    out: dict = {"samples": int(summary["samples"]), "failed_samples": int(summary["failed_samples"])}
+    terminal = {}
+    for (name, i, _), sname in zip(_TERMINAL, _SOLVER_TERMINAL):
+        f = 1.0 if name in ("altitude_m", "speed_mps") else 180.0 / math.pi
+        st = summary["terminal"][sname]
+        terminal[name] = {"mean": _f(st["mean"] * f), "std": _f(st["std"] * f),
+                          "cadet_mean": _f(prediction.mean[i, -1] * f),
+                          "cadet_std": _f(prediction.sigma[i, -1] * f)}
+        sd = prediction.sigma[i, -1] * f
+        terminal[name]["mean_difference_in_sigma"] = _f((st["mean"] * f - prediction.mean[i, -1] * f) / sd) if sd > 0 else 0.0
+    out["terminal"] = terminal
+    lat = terminal["latitude_deg"]
+    out["objective"] = {"name": "latitude_deg", "mean": lat["mean"], "std": lat["std"],
+                        "mean_minus_k_std": _f(lat["mean"] - objective_k * lat["std"]),
+                        "cadet_mean": lat["cadet_mean"], "cadet_std": lat["cadet_std"]}
+    within = {}
+    for sname, bands in summary["within"].items():
+        api = {"altitude_m": "altitude_m", "speed_mps": "speed_mps", "flight_path_rad": "flight_path_deg"}[sname]
+        within[api] = {f"within_required_pm_{b}": _f(v) for b, v in bands.items()}
+    out["terminal_within_required"] = within
+    for name, pc in summary["path"].items():
+        out[f"{name}_kept_fraction"] = _f(pc["kept_fraction"])
+        out[f"{name}_kept_fraction_nodes"] = _f(pc["kept_fraction_nodes"])
+        unit = {"heat_rate": "_w_m2", "dynamic_pressure": "_pa", "load_factor": ""}.get(name, "")
+        out[f"{name}_worst{unit}"] = _f(pc["worst"]) if pc["worst"] is not None else None
+        out[f"{name}_limit{unit}"] = _f(pc["limit"])
+    out["cadet_heat_rate_mean_plus_k_sigma_max_w_m2"] = _f(np.max(prediction.heat_mean + objective_k * prediction.heat_sigma))
+    return out
+
+
+def _solution_view(sol, *, robust: bool):
+    """Adapter so the reentry kind's result builder serves the robust solution as well."""
+    from types import SimpleNamespace
+
+    return SimpleNamespace(x=sol.x, u_nodes_at_t=sol.u, objective_value=sol.x[2, -1], objective_name="max_crossrange",
+                           status=sol.status, tf=sol.tf, t=sol.t, heat_rate=sol.heat_rate, stages=sol.stages,
+                           notes=sol.notes, verification=sol.verification) if robust else sol
+
+
+def run(params: Params, ctx: JobContext) -> RunOutcome:
+    import numpy as np
+
+    from solvers import robust_reentry as rr
+    from solvers.uncertainty import montecarlo as mc
+
+    problem = _problem(params)
+    guess = params.initial_guess.kind
+    notes: list[str] = []
+    if params.initial_guess.from_job:
+        job = params.initial_guess.from_job
+        try:
+            guess = rk._guess_from_result(ctx.load_result(job))
+        except LookupError as exc:
+            raise JobFailure("internal", f"initial_guess.from_job: {exc}") from None
+        except (KeyError, TypeError, ValueError) as exc:
+            raise JobFailure("internal", f"initial_guess.from_job: job {job} has no usable trajectory ({exc})") from None
+        notes.append(f"deterministic stage warm-started from job {job}")
+    ctx.progress(0.0, "deterministic design (DO)")
+    sol = rr.solve(problem, initial_guess=guess, on_progress=lambda f, m: ctx.progress(0.8 * f, m),
+                   should_stop=ctx.should_stop)
+    if not sol.status.ok:
+        partial = {"deterministic": rk._result(params, sol.deterministic), "stages": sol.stages}
+        return outcome_from_status(sol.status, partial)
+
+    result = rk._result(params, _solution_view(sol, robust=True))
+    kj = problem.robust.k_objective
+    pred = sol.robust_prediction
+    result["objective"] = {"name": "max_crossrange_robust", "value": _f(np.degrees(sol.objective_value)),
+                           "unit": "deg", "mean_latitude_deg": _f(np.degrees(pred.mean[2, -1])),
+                           "sigma_latitude_deg": _f(np.degrees(pred.sigma[2, -1])), "k_objective": _f(kj)}
+    tr = result["trajectory"]
+    tr["heat_rate_sigma_w_m2"] = [_f(v) for v in pred.heat_sigma]
+    tr["altitude_sigma_m"] = [_f(v) for v in pred.sigma[0]]
+    tr["latitude_sigma_deg"] = [_f(v) for v in np.degrees(pred.sigma[2])]
+    tr["speed_sigma_mps"] = [_f(v) for v in pred.sigma[3]]
+    tr["flight_path_sigma_deg"] = [_f(v) for v in np.degrees(pred.sigma[4])]
+    result["final_sigma"] = {"altitude_m": _f(pred.sigma[0, -1]), "speed_mps": _f(pred.sigma[3, -1]),
+                             "flight_path_deg": _f(np.degrees(pred.sigma[4, -1])),
+                             "latitude_deg": _f(np.degrees(pred.sigma[2, -1]))}
+    det_res = rk._result(params, sol.deterministic)
+    result["deterministic"] = {k: det_res[k] for k in ("objective", "tf_s", "final", "trajectory", "solver")}
+
+    # CADET statistics reported side by side with the Monte Carlo use the second-order mean
+    # (the first-order mean is off by about 0.2 sigma on this problem).
+    mcp = params.monte_carlo
+    run_mc = getattr(ctx, "run_monte_carlo", None)
+    via = "workers" if run_mc is not None else "in-process"
+    mc_out = {"samples": mcp.samples, "seed": mcp.seed, "chunk_size": mcp.chunk_size,
+              "substeps_per_interval": mcp.substeps, "executed": via}
+    for i, (name, t, u) in enumerate((("deterministic", sol.deterministic.t, sol.deterministic.u_nodes_at_t),
+                                      ("robust", sol.t, sol.u))):
+        if ctx.should_stop():
+            return RunOutcome("cancelled", result=result, error={"code": "cancelled", "message": "cancelled by request"})
+        ctx.progress(0.8 + 0.1 * i, f"Monte Carlo of the {name} design ({mcp.samples} samples)")
+        p2 = rr.predict(problem, t=t, u=u, second_order=True)
+        spec = rr.monte_carlo_spec(problem, t=t, u=u, cadet_sigma=p2.terminal_sigma, substeps=mcp.substeps)
+        if run_mc is not None:
+            summary = run_mc(spec, mcp.samples, mcp.seed, mcp.chunk_size)
+        else:
+            summary = mc.run_monte_carlo(spec, mcp.samples, mcp.seed, mcp.chunk_size)
+        mc_out[name] = _mc_block(summary, p2, kj)
+    result["monte_carlo"] = mc_out
+    do_mc, ro_mc = mc_out["deterministic"], mc_out["robust"]
+    result["notes"] = notes + list(sol.notes) + [
+        f"tf: deterministic {sol.deterministic.tf:.2f} s, robust {sol.tf:.2f} s (paper 001: 2200.1 / 2289.4 s)",
+        f"heating limit kept over the whole flight (fine grid, {mcp.substeps} RK4 steps per interval): "
+        f"DO {100 * do_mc['heat_rate_kept_fraction']:.2f}%, RO {100 * ro_mc['heat_rate_kept_fraction']:.2f}%; "
+        f"at the NLP nodes only: DO {100 * do_mc['heat_rate_kept_fraction_nodes']:.2f}%, "
+        f"RO {100 * ro_mc['heat_rate_kept_fraction_nodes']:.2f}% (paper 001: 0.17% / 99.33%, a node-level figure)",
+        "the robust heating limit mu + kC sigma <= q_max is enforced at the nodes and at every RK4 substep "
+        "of the augmented system, so that it holds between nodes too",
+        "CADET in the NLP is first-order unless robust.second_order; the cadet_mean/cadet_std reported "
+        "next to the Monte Carlo are second-order predictions along the same controls",
+        "within_required_pm_sigma_cadet counts samples within the required terminal value +- the design's "
+        "CADET sigma (known before the run, so every chunk uses the same band); within_required_pm_sigma_limit "
+        "uses the sigma limits (4500 m, 250 m/s, 3 deg)",
+    ]
+    ctx.progress(1.0, "done")
+    return outcome_from_status(sol.status, result)
+
+
+SPEC = KindSpec(kind="robust_reentry", params_model=Params, run=run, presets=PRESETS,
+                summary="Robust reentry (paper 001): CADET mean/covariance propagation, mean - k sigma design, "
+                        "Monte Carlo validation of the deterministic and robust controls")

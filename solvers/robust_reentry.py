@@ -1,0 +1,409 @@
+"""Robust reentry design with CADET covariance propagation (the ``robust_reentry`` job kind).
+
+Problem: paper 001 (Liu Xu et al., reentry trajectory robust optimization based on the
+covariance analysis describing function technique, 2020), eqs. (13)-(16): the Betts
+heat-limited maximum-crossrange shuttle reentry (Betts, *Practical Methods for Optimal
+Control*, 2nd ed., sec. 6.3) with uncertain aerodynamics ``CD = CD_N (1 + s1)``,
+``CL = CL_N (1 + s2)``, ``s ~ N(mu_s, P_ss)`` constant over the flight, solved as
+
+    max  mu(lat_f) - kJ sigma(lat_f)
+    s.t. CADET mean/covariance dynamics (:mod:`solvers.uncertainty.cadet`)
+         mu(q) + kC sigma(q) <= q_max         (at the nodes and every RK4 substep)
+         mu(h_f, v_f, gamma_f) = required,   sigma(h_f, v_f, gamma_f) <= limits
+
+on the deterministic problem's own multiple-shooting transcription
+(:mod:`solvers.transcription.multiple_shooting`) with the 39-state augmented system
+(6 means, 21 upper-triangle entries of P_xx, 12 of P_xs).  The robust heating limit is
+written without a square root: ``q_max - mu >= 0`` and ``kC^2 var <= (q_max - mu)^2``.
+The variance limits are plain bounds on the final node's variance entries.
+
+Continuation (the single-stage solve is badly conditioned): the deterministic optimum (DO)
+supplies the mean, CADET along its controls the covariance; stage 1 has ``kJ = kC = 0`` and
+no sigma limits, stage 2 is the full problem.  Both stages share one built solver (the
+weights are NLP parameters, the sigma limits bounds).
+
+Monte Carlo validation of both designs: :func:`monte_carlo_spec` gives a JSON spec for
+:mod:`solvers.uncertainty.montecarlo` whose model :func:`monte_carlo_model` is registered
+there as ``"shuttle_reentry"``.
+"""
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from solvers import reentry as det
+from solvers.common import Outcome, ProgressFn, SolveStatus, StopFn
+from solvers.models import reentry_dynamics as dyn
+from solvers.models import shuttle as sh
+from solvers.models.atmosphere import Atmosphere
+from solvers.transcription.multiple_shooting import PathConstraint, ShootingProblem, Transcription
+from solvers.uncertainty.cadet import CadetSensitivity, CadetSystem
+from solvers.uncertainty.montecarlo import MCModel
+from solvers.uncertainty.montecarlo import PathConstraint as MCPath
+
+NX, NU, NS = 6, 2, 2
+TERMINAL_INDEX = {"altitude_m": 0, "speed_mps": 3, "flight_path_rad": 4}
+# Typical 1-sigma spreads, for scaling the covariance entries to O(1) in the NLP.
+SIGMA_SCALE = (3000.0, 0.005, 0.005, 100.0, 0.01, 0.01)
+S_SCALE = (0.01, 0.01)
+# Normalizers of the terminal variance constraints (the paper's limits)
+SIGMA_NORM = {"altitude_m": 4500.0, "speed_mps": 250.0, "flight_path_rad": 3.0 * sh.DEG}
+
+
+@dataclass
+class Uncertainty:
+    """Relative aerodynamic errors (paper 001 eq. 12) and optional initial-state dispersions (SI, rad)."""
+
+    s_mean: tuple[float, float] = (0.01, -0.01)       # (cd, cl)
+    s_std: tuple[float, float] = (0.01, 0.01)
+    x0_std: tuple[float, ...] | None = None
+
+    @property
+    def s_cov(self) -> np.ndarray:
+        return np.diag(np.asarray(self.s_std, float) ** 2)
+
+    @property
+    def r0(self) -> int:
+        """Rank of the initial covariance: the number of initial-state error directions."""
+        return 0 if self.x0_std is None else int(np.count_nonzero(np.asarray(self.x0_std, float)))
+
+    @property
+    def x0_cov(self) -> np.ndarray:
+        if self.x0_std is None:
+            return np.zeros((NX, NX))
+        return np.diag(np.asarray(self.x0_std, float) ** 2)
+
+
+@dataclass
+class RobustSettings:
+    k_objective: float = 3.0
+    k_constraint: float = 3.0
+    # sigma(h_f) [m], sigma(v_f) [m/s], sigma(gamma_f) [rad]; None drops a limit.
+    sigma_limits: dict = field(default_factory=lambda: {
+        "altitude_m": 4500.0, "speed_mps": 250.0, "flight_path_rad": 3.0 * sh.DEG})
+    second_order: bool = True
+    # The robust heating limit is checked at the nodes and every RK4 substep; a relative
+    # margin on top covers what still slips between substeps.
+    heat_margin: float = 0.0
+    substeps: int = 4
+
+
+@dataclass
+class RobustReentryProblem:
+    base: det.ReentryProblem = field(default_factory=lambda: det.ReentryProblem(
+        max_heat_rate_w_m2=sh.BETTS_HEAT_LIMIT_W_M2))
+    uncertainty: Uncertainty = field(default_factory=Uncertainty)
+    robust: RobustSettings = field(default_factory=RobustSettings)
+
+    def __post_init__(self):
+        if self.base.objective != "max_crossrange":
+            raise ValueError("robust_reentry supports objective 'max_crossrange' (paper 001)")
+        if self.base.max_heat_rate_w_m2 is None:
+            raise ValueError("robust_reentry needs a heating limit (paper 001's active constraint)")
+        if self.base.control != "linear":
+            raise ValueError("robust_reentry uses piecewise-linear controls")
+
+
+@dataclass
+class Prediction:
+    """CADET statistics along a solution's controls: means and sigmas at the nodes."""
+
+    t: np.ndarray
+    mean: np.ndarray          # (6, m+1)
+    sigma: np.ndarray         # (6, m+1)
+    heat_mean: np.ndarray     # (m+1,) W/m^2
+    heat_sigma: np.ndarray    # (m+1,) W/m^2
+
+    @property
+    def terminal_sigma(self) -> np.ndarray:
+        return self.sigma[:, -1]
+
+
+@dataclass
+class RobustReentrySolution:
+    status: SolveStatus
+    deterministic: det.ReentrySolution
+    tf: float
+    t: np.ndarray
+    x: np.ndarray                 # mean states (6, m+1)
+    u: np.ndarray                 # (2, m+1)
+    objective_value: float        # mu(lat_f) - kJ sigma(lat_f), rad
+    heat_rate: np.ndarray         # mean heating rate at the nodes, W/m^2
+    robust_prediction: Prediction | None
+    deterministic_prediction: Prediction | None
+    verification: object | None   # nominal (s = mu_s) re-propagation, solvers.verification
+    stages: list[dict] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+
+# --- the CADET system of the shuttle --------------------------------------------------------
+def _heat_moments(cad: CadetSensitivity, vehicle: sh.Vehicle, q_max: float) -> ca.Function:
+    x = ca.SX.sym("x", NX)
+    u = ca.SX.sym("u", NU)
+    s = ca.SX.sym("s", NS)
+    c = ca.Function("qn", [x, u, s], [dyn.heat_rate(x, u, vehicle, ca) / q_max])
+    return cad.output_moments(c, name="heat_moments")
+
+
+def _sens(problem: "RobustReentryProblem") -> CadetSensitivity:
+    x = ca.SX.sym("x", NX)
+    u = ca.SX.sym("u", NU)
+    s = ca.SX.sym("s", NS)
+    v = problem.base.vehicle
+    f = ca.Function("eom", [x, u, s], [dyn.eom(x, u, v, ca, cd_scale=1 + s[0], cl_scale=1 + s[1])])
+    return CadetSensitivity(f, nx=NX, nu=NU, ns=NS, r0=problem.uncertainty.r0,
+                            second_order=problem.robust.second_order)
+
+
+def _robust_problem(problem: RobustReentryProblem, cad: CadetSensitivity) -> ShootingProblem:
+    base, rob = problem.base, problem.robust
+    vehicle = base.vehicle
+    q_max = float(base.max_heat_rate_w_m2)
+    nth = cad.n_theta
+    hm = _heat_moments(cad, vehicle, q_max)
+    margin = 1.0 - rob.heat_margin
+
+    def dynamics(z, u, p):
+        return cad.rhs(z, u, p[:nth])
+
+    def heat(z, u, p):
+        kc = p[nth + 1]
+        mu, var = hm(z, u, p[:nth])
+        slack = margin - mu
+        # no sqrt: mu + kC sigma <= 1  <=>  1 - mu >= 0  and  kC^2 var <= (1 - mu)^2
+        return ca.vertcat(mu - margin, kc ** 2 * ca.fmax(var, 0) - ca.fmax(slack, 0) ** 2)
+
+    def mayer(zf, T, p):
+        kj = p[nth]
+        var = cad.variance_of_state(zf, p[:nth], 2)
+        return -(zf[2] - kj * ca.sqrt(ca.fmax(var, 0) + 1e-14))
+
+    def terminal(zf, p):
+        # variances of h_f, v_f, gamma_f over their limits squared: bounds (-inf, 1] in stage 2
+        return ca.vertcat(*[cad.variance_of_state(zf, p[:nth], i) / SIGMA_NORM[n] ** 2
+                            for n, i in TERMINAL_INDEX.items()])
+
+    L = cad.layout
+    w_scale = (1.0,) * cad.r0 + S_SCALE
+    x_scale = L.scale_with_mean(det.X_SCALE, SIGMA_SCALE, w_scale)
+    key = ("robust_reentry", vehicle, rob.second_order, cad.r0, float(q_max), float(rob.heat_margin))
+    return ShootingProblem(
+        key=key, nx=L.nz, nu=NU, n_params=nth + 2, dynamics=dynamics, x_scale=tuple(x_scale),
+        u_scale=det.U_SCALE, t_scale=det.T_SCALE, intervals=base.intervals, control="linear",
+        substeps=rob.substeps, mayer=mayer, terminal=terminal, n_terminal=len(TERMINAL_INDEX),
+        path=(PathConstraint("robust_heat_rate", heat, size=2, where="substeps"),),
+        # A warm start: IPOPT's adaptive barrier jumped to mu = 1e9 on the first step and
+        # never recovered (the pitfall of the spec); a small monotone barrier converges.
+        ipopt={"mu_strategy": "monotone", "mu_init": 1e-3, **base.ipopt})
+
+
+def _bounds(problem: RobustReentryProblem, cad: CadetSensitivity, *, sigma_limits: bool):
+    base = problem.base
+    m = base.intervals
+    L = cad.layout
+    x_lb6, x_ub6, u_lb, u_ub = det._bounds(base, m)  # the deterministic problem's own bounds
+    big = 1e20
+    x_lb = np.vstack([x_lb6, np.full((L.nz - NX, m + 1), -big)])
+    x_ub = np.vstack([x_ub6, np.full((L.nz - NX, m + 1), big)])
+    z0 = cad.initial(np.asarray(base.initial_state, float), problem.uncertainty.x0_cov)
+    x_lb[:, 0] = z0
+    x_ub[:, 0] = z0
+    hi = np.full(len(TERMINAL_INDEX), np.inf)
+    if sigma_limits:
+        for k, name in enumerate(TERMINAL_INDEX):
+            lim = problem.robust.sigma_limits.get(name)
+            if lim is not None:
+                hi[k] = (float(lim) / SIGMA_NORM[name]) ** 2
+    return x_lb, x_ub, u_lb, u_ub, z0, (np.full(len(TERMINAL_INDEX), -np.inf), hi)
+
+
+def predict(problem: RobustReentryProblem, *, t, u, second_order: bool | None = None,
+            substeps: int | None = None) -> Prediction:
+    """CADET means and sigmas along node controls ``u`` (2, m+1) at node times ``t``."""
+    if second_order is not None and second_order != problem.robust.second_order:
+        problem = dataclasses.replace(problem, robust=dataclasses.replace(problem.robust,
+                                                                          second_order=second_order))
+    cad = _sens(problem)
+    unc = problem.uncertainty
+    theta = CadetSystem.theta(unc.s_mean, unc.s_cov)
+    z0 = cad.initial(np.asarray(problem.base.initial_state, float), unc.x0_cov)
+    Z, _ = cad.propagate(z0=z0, controls=u, t_nodes=t, theta=theta,
+                         substeps=substeps or problem.robust.substeps)
+    return _prediction(problem, cad, t, Z, u, theta)
+
+
+def _prediction(problem, cad, t, Z, u, theta) -> Prediction:
+    m, Pxx, _ = cad.covariance(Z, theta)
+    sig = np.sqrt(np.maximum(np.einsum("iik->ik", Pxx), 0.0))
+    q_max = float(problem.base.max_heat_rate_w_m2)
+    hm = _heat_moments(cad, problem.base.vehicle, q_max).map(Z.shape[1])
+    mu, var = hm(Z, u, theta)
+    return Prediction(t=np.asarray(t, float), mean=m, sigma=sig,
+                      heat_mean=np.asarray(mu).ravel() * q_max,
+                      heat_sigma=np.sqrt(np.maximum(np.asarray(var).ravel(), 0.0)) * q_max)
+
+
+def solve(problem: RobustReentryProblem, *, initial_guess=None, on_progress: ProgressFn | None = None,
+          should_stop: StopFn | None = None, seed=None) -> RobustReentrySolution:  # noqa: ARG001
+    """DO, then CADET along the DO controls, then the two robust stages."""
+    progress = on_progress or (lambda f, msg: None)
+    base = problem.base
+    m = base.intervals
+    notes: list[str] = []
+
+    def sub(lo, hi):
+        return lambda f, msg: progress(lo + (hi - lo) * f, msg)
+
+    do = det.solve(base, initial_guess=initial_guess, on_progress=sub(0.0, 0.3), should_stop=should_stop)
+    stages = [{"stage": "deterministic", **{k: v for k, v in s.items() if k != "stage"},
+               "sub_stage": s["stage"]} for s in do.stages]
+    if not do.status.ok:
+        status = dataclasses.replace(do.status, message=f"deterministic stage: {do.status.message}")
+        return RobustReentrySolution(status=status, deterministic=do, tf=do.tf, t=do.t, x=do.x, u=do.u,
+                                     objective_value=float("nan"), heat_rate=do.heat_rate,
+                                     robust_prediction=None, deterministic_prediction=None,
+                                     verification=None, stages=stages, notes=notes)
+
+    t_build = time.perf_counter()
+    cad = _sens(problem)
+    sp = _robust_problem(problem, cad)
+    tr = Transcription(sp)
+    build_time = 0.0 if tr.was_cached else time.perf_counter() - t_build
+    unc = problem.uncertainty
+    theta = CadetSystem.theta(unc.s_mean, unc.s_cov)
+    u_do = do.u_nodes_at_t
+    # Guess: the DO's nodes for the mean, CADET along the DO's controls for the covariance.
+    Zdo, _ = cad.propagate(z0=_bounds(problem, cad, sigma_limits=False)[4], controls=u_do,
+                           t_nodes=do.t, theta=theta, substeps=problem.robust.substeps)
+    do_pred = _prediction(problem, cad, do.t, Zdo, u_do, theta)
+    # The whole guess is the CADET propagation along the DO controls (mean with s = mu_s):
+    # consistent with the matching conditions, only the terminal mean is off.  The DO nodes as
+    # mean with this covariance leave O(1) covariance defects late in the flight, from which
+    # IPOPT diverged.
+    guess = (do.tf, Zdo, u_do)
+    rob = problem.robust
+    weights = [(0.0, 0.0, False, (0.3, 0.6), "robust stage 1 (kJ = kC = 0, no sigma limits)"),
+               (rob.k_objective, rob.k_constraint, True, (0.6, 0.97), "robust stage 2 (full problem)")]
+    res = None
+    for kj, kc, limits, span, label in weights:
+        x_lb, x_ub, u_lb, u_ub, _, term = _bounds(problem, cad, sigma_limits=limits)
+        p = np.concatenate([theta, [kj, kc]])
+        res = tr.solve(p=p, x_lb=x_lb, x_ub=x_ub, u_lb=u_lb, u_ub=u_ub, tf_bounds=base.tf_bounds_s,
+                       guess=guess, terminal_bounds=term, on_progress=sub(*span), should_stop=should_stop,
+                       expected_iterations=60)
+        stages.append({"stage": label, "status": res.status.solver_status,
+                       "iterations": res.status.iterations, "solve_time_s": res.status.solve_time_s})
+        if not res.status.ok:
+            break
+        guess = (res.tf, res.x, res.u)
+
+    st = res.status
+    status = dataclasses.replace(
+        st, iterations=sum(s["iterations"] for s in stages if s["stage"].startswith("robust")),
+        solve_time_s=sum(s["solve_time_s"] for s in stages if s["stage"].startswith("robust")),
+        build_time_s=build_time,
+        details={**st.details, "stages": stages, "solver_cached": tr.was_cached,
+                 "deterministic_solve_time_s": do.status.solve_time_s,
+                 "deterministic_iterations": do.status.iterations})
+    if not st.ok:
+        status.message = f"{stages[-1]['stage']}: {st.message}"
+    mean = res.x[:NX]
+    pred = _prediction(problem, cad, res.t, res.x, res.u, theta)
+    obj = float(mean[2, -1] - rob.k_objective * pred.sigma[2, -1])
+    ver = None
+    if st.ok and base.verify:
+        nominal = dataclasses.replace(base.vehicle, cd_scale=base.vehicle.cd_scale * (1 + unc.s_mean[0]),
+                                      cl_scale=base.vehicle.cl_scale * (1 + unc.s_mean[1]))
+        from solvers.verification import repropagate
+        ver = repropagate(rhs=lambda x, u: dyn.eom(x, u, nominal, np), x0=base.initial_state,
+                          t_nodes=res.t, x_nodes=mean, u_nodes=res.u, control="linear",
+                          path={"heat_rate_w_m2": lambda X, U: dyn.heat_rate(X, U, nominal, np)})
+        notes.append("verification re-propagates the robust controls with s = mu_s (the mean "
+                     "aerodynamics); the difference to the CADET mean is the nonlinearity the "
+                     "second-order term does not capture")
+    return RobustReentrySolution(
+        status=status, deterministic=do, tf=res.tf, t=res.t, x=mean, u=res.u, objective_value=obj,
+        heat_rate=pred.heat_mean, robust_prediction=pred, deterministic_prediction=do_pred,
+        verification=ver, stages=stages, notes=notes)
+
+
+# --- Monte Carlo ------------------------------------------------------------------------------
+def vehicle_to_dict(v: sh.Vehicle) -> dict:
+    return {"mass_kg": float(v.mass_kg), "area_m2": float(v.area_m2),
+            "cl_coeffs": [float(c) for c in v.cl_coeffs], "cd_coeffs": [float(c) for c in v.cd_coeffs],
+            "heat_coeffs": [float(c) for c in v.heat_coeffs],
+            "atmosphere": dataclasses.asdict(v.atmosphere), "planet": dataclasses.asdict(v.planet),
+            "rotating_earth": bool(v.rotating_earth), "cd_scale": float(v.cd_scale),
+            "cl_scale": float(v.cl_scale)}
+
+
+def vehicle_from_dict(d: dict) -> sh.Vehicle:
+    return sh.Vehicle(mass_kg=d["mass_kg"], area_m2=d["area_m2"], cl_coeffs=tuple(d["cl_coeffs"]),
+                      cd_coeffs=tuple(d["cd_coeffs"]), heat_coeffs=tuple(d["heat_coeffs"]),
+                      atmosphere=Atmosphere(**d["atmosphere"]), planet=sh.Planet(**d["planet"]),
+                      rotating_earth=d["rotating_earth"], cd_scale=d["cd_scale"], cl_scale=d["cl_scale"])
+
+
+TERMINAL_NAMES = ("altitude_m", "longitude_rad", "latitude_rad", "speed_mps", "flight_path_rad", "heading_rad")
+
+
+def monte_carlo_model(params: dict) -> MCModel:
+    """The shuttle with sampled ``(s1, s2)``: ``CD (1 + s1)``, ``CL (1 + s2)``."""
+    v = vehicle_from_dict(params["vehicle"])
+
+    def rhs(x, u, s):
+        return dyn.eom(x, u, v, np, cd_scale=1.0 + s[0], cl_scale=1.0 + s[1])
+
+    path = {}
+    if params.get("max_heat_rate_w_m2") is not None:
+        path["heat_rate"] = MCPath(fn=lambda x, u, s: dyn.heat_rate(x, u, v, np),
+                                   limit=float(params["max_heat_rate_w_m2"]))
+    if params.get("max_dynamic_pressure_pa") is not None:
+        path["dynamic_pressure"] = MCPath(fn=lambda x, u, s: dyn.dynamic_pressure(x, v, np),
+                                          limit=float(params["max_dynamic_pressure_pa"]))
+    if params.get("max_load_factor") is not None:
+        path["load_factor"] = MCPath(
+            fn=lambda x, u, s: dyn.load_factor(x, u, v, np, cd_scale=1.0 + s[0], cl_scale=1.0 + s[1]),
+            limit=float(params["max_load_factor"]))
+    return MCModel(nx=NX, nu=NU, ns=NS, rhs=rhs,
+                   terminal=lambda x: {n: x[i] for i, n in enumerate(TERMINAL_NAMES)}, path=path)
+
+
+def monte_carlo_spec(problem: RobustReentryProblem, *, t, u, cadet_sigma=None, substeps: int = 10) -> dict:
+    """JSON-serializable Monte Carlo spec for node controls ``u`` (2, m+1) at times ``t``.
+
+    ``cadet_sigma`` (6,) are CADET's terminal sigmas of this design: the "required value
+    +- sigma" band, known before the run so every chunk counts against the same band.
+    """
+    base, unc = problem.base, problem.uncertainty
+    required = {n: float(getattr(base.terminal, n)) for n in TERMINAL_INDEX
+                if getattr(base.terminal, n) is not None}
+    bands: dict = {}
+    for n in required:
+        b = {}
+        lim = problem.robust.sigma_limits.get(n)
+        if lim is not None:
+            b["sigma_limit"] = float(lim)
+        if cadet_sigma is not None:
+            b["sigma_cadet"] = float(cadet_sigma[TERMINAL_INDEX[n]])
+        bands[n] = b
+    return {
+        "model": "shuttle_reentry",
+        "model_params": {"vehicle": vehicle_to_dict(base.vehicle),
+                         "max_heat_rate_w_m2": base.max_heat_rate_w_m2,
+                         "max_dynamic_pressure_pa": base.max_dynamic_pressure_pa,
+                         "max_load_factor": base.max_load_factor},
+        "t_nodes": [float(v) for v in t],
+        "controls": [[float(v) for v in row] for row in np.asarray(u, float)],
+        "x0_mean": [float(v) for v in base.initial_state],
+        "x0_cov": None if unc.x0_std is None else unc.x0_cov.tolist(),
+        "s_mean": [float(v) for v in unc.s_mean],
+        "s_cov": unc.s_cov.tolist(),
+        "substeps": int(substeps),
+        "required": required,
+        "bands": bands,
+    }
