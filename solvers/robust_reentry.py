@@ -336,7 +336,9 @@ def solve(problem: RobustReentryProblem, *, initial_guess=None, on_progress: Pro
         from solvers.verification import repropagate
         ver = repropagate(rhs=lambda x, u: dyn.eom(x, u, nominal, np), x0=base.initial_state,
                           t_nodes=res.t, x_nodes=mean, u_nodes=res.u, control="linear",
-                          path={"heat_rate_w_m2": lambda X, U: dyn.heat_rate(X, U, nominal, np)})
+                          path={"heat_rate_w_m2": lambda X, U: dyn.heat_rate(X, U, nominal, np),
+                                "dynamic_pressure_pa": lambda X, U: dyn.dynamic_pressure(X, nominal, np),
+                                "load_factor": lambda X, U: dyn.load_factor(X, U, nominal, np)})
         notes.append("verification re-propagates the robust controls with s = mu_s (the mean "
                      "aerodynamics); the difference to the CADET mean is the nonlinearity the "
                      "second-order term does not capture")
