@@ -390,7 +390,7 @@ def monte_carlo_model(params: dict) -> MCModel:
                    terminal=lambda x: {n: x[i] for i, n in enumerate(TERMINAL_NAMES)}, path=path)
 
 
-def monte_carlo_spec(problem: RobustReentryProblem, *, t, u, cadet_sigma=None, substeps: int = 10) -> dict:
+def monte_carlo_spec(problem: RobustReentryProblem, *, t, u, cadet_sigma=None, substeps: int = 5) -> dict:
     """JSON-serializable Monte Carlo spec for node controls ``u`` (2, m+1) at times ``t``.
 
     ``cadet_sigma`` (6,) are CADET's terminal sigmas of this design: the "required value

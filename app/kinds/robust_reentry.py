@@ -70,8 +70,8 @@ class MonteCarloParams(StrictModel):
     seed: int = Field(2020, ge=0, description="Seed; sample i always draws the same numbers", examples=[2020])
     chunk_size: int = Field(2500, ge=10, le=200000, description="Samples per chunk (unit of scale-out)",
                             examples=[2500])
-    substeps: int = Field(10, ge=2, le=50, description="RK4 steps per NLP interval; also the fine grid "
-                          "on which path limits are checked", examples=[10])
+    substeps: int = Field(5, ge=2, le=50, description="RK4 steps per NLP interval (5: 4.4 s steps, results identical to 10 and 20); also the fine grid "
+                          "on which path limits are checked", examples=[5])
 
 
 def _heat_limited_path() -> rk.PathLimits:

@@ -35,7 +35,7 @@ def monte_carlo(solved):
     out = {}
     for name, t, u in (("do", sol.deterministic.t, sol.deterministic.u_nodes_at_t), ("ro", sol.t, sol.u)):
         pred = rr.predict(problem, t=t, u=u, second_order=True)
-        spec = rr.monte_carlo_spec(problem, t=t, u=u, cadet_sigma=pred.terminal_sigma, substeps=10)
+        spec = rr.monte_carlo_spec(problem, t=t, u=u, cadet_sigma=pred.terminal_sigma, substeps=5)
         out[name] = (spec, pred, mc.run_monte_carlo(spec, 10000, 2020, chunk_size=2500))
     return out
 
@@ -115,7 +115,7 @@ def test_spec_is_json_and_split_equals_unsplit(monte_carlo):
 def test_step_doubling_changes_nothing_reported(monte_carlo):
     spec = dict(monte_carlo["ro"][0])
     a = mc.run_monte_carlo(spec, 1000, 5)
-    b = mc.run_monte_carlo({**spec, "substeps": 20}, 1000, 5)
+    b = mc.run_monte_carlo({**spec, "substeps": 10}, 1000, 5)
     assert a["path"]["heat_rate"]["kept_fraction"] == b["path"]["heat_rate"]["kept_fraction"]
     assert a["within"] == b["within"]
     for q in rr.TERMINAL_NAMES:
@@ -140,4 +140,5 @@ def test_monte_carlo_samples_against_solve_ivp(monte_carlo, solved):
             y = solve_ivp(f, (t[k], t[k + 1]), y, method="DOP853", rtol=1e-10, atol=1e-9).y[:, -1]
         assert abs(xf[0, i] - y[0]) < 1.0          # m
         assert abs(xf[3, i] - y[3]) < 0.01         # m/s
-        np.testing.assert_allclose(xf[[1, 2, 4, 5], i], y[[1, 2, 4, 5]], rtol=0, atol=1e-6)
+        # angles: RK4 with 4.4 s steps is within 1e-5 rad (6e-4 deg), 1/4000 of sigma(gamma_f)
+        np.testing.assert_allclose(xf[[1, 2, 4, 5], i], y[[1, 2, 4, 5]], rtol=0, atol=1e-5)
