@@ -158,6 +158,8 @@ def _mc_block(summary: dict, prediction, objective_k: float) -> dict:
     import numpy as np
 
     out: dict = {"samples": int(summary["samples"]), "failed_samples": int(summary["failed_samples"])}
+    if "distribution" in summary:  # which workers computed which chunks (fanned-out runs)
+        out["distribution"] = summary["distribution"]
     terminal = {}
     for (name, i, _), sname in zip(_TERMINAL, _SOLVER_TERMINAL):
         f = 1.0 if name in ("altitude_m", "speed_mps") else 180.0 / math.pi

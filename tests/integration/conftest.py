@@ -87,6 +87,20 @@ class Service:
         self.worker = subprocess.Popen(cmd, cwd=ROOT, env=self.env, stdout=log, stderr=subprocess.STDOUT,
                                        start_new_session=True)
 
+    def start_second_worker(self) -> None:
+        """Another worker process (no beat), for tests that need two workers."""
+        log = open(self.log_dir / "worker-second.log", "ab")
+        cmd = [sys.executable, "-m", "celery", "-A", "worker.celery_app:celery_app", "worker",
+               "--loglevel=INFO", "--concurrency=1", "-n", f"second-{uuid.uuid4().hex[:6]}@%h"]
+        self.second = subprocess.Popen(cmd, cwd=ROOT, env=self.env, stdout=log, stderr=subprocess.STDOUT,
+                                       start_new_session=True)
+
+    def stop_second_worker(self) -> None:
+        if getattr(self, "second", None) is not None and self.second.poll() is None:
+            os.killpg(self.second.pid, signal.SIGTERM)
+            self.second.wait(timeout=60)
+        self.second = None
+
     def kill_worker(self) -> None:
         if self.worker is not None and self.worker.poll() is None:
             os.killpg(self.worker.pid, signal.SIGKILL)
