@@ -42,6 +42,31 @@ def _sym_from_triu(v, n: int):
     return M
 
 
+def mean_rate_and_jacobians(f, m, u, mu_s, P_xx, P_xs, P_ss, *, second_order: bool):
+    """CADET's mean rate ``f(m, u, mu_s)`` (+ ``0.5 tr(H_i P)`` if ``second_order``)
+    and the Jacobians ``F_x``, ``F_s`` at the mean, shared by both storage forms.
+
+    The P_ss block matters in the correction because f is nonlinear in s through
+    products like (1 + s) * rho * v^2.
+    """
+    nx, ns = int(m.numel()), int(mu_s.numel())
+    xs = ca.SX.sym("x", nx)
+    ss = ca.SX.sym("s", ns)
+    fx = f(xs, u, ss)
+    jac = ca.Function("F", [xs, u, ss], [ca.jacobian(fx, xs), ca.jacobian(fx, ss)])
+    F_x, F_s = jac(m, u, mu_s)
+    mdot = f(m, u, mu_s)
+    if second_order:
+        zaug = ca.vertcat(xs, ss)
+        P = ca.blockcat([[P_xx, P_xs], [P_xs.T, P_ss]])
+        corr = []
+        for i in range(nx):
+            H = ca.Function("H", [xs, u, ss], [ca.hessian(fx[i], zaug)[0]])
+            corr.append(0.5 * ca.trace(ca.mtimes(H(m, u, mu_s), P)))
+        mdot = mdot + ca.vertcat(*corr)
+    return mdot, F_x, F_s
+
+
 @dataclass(frozen=True)
 class CadetLayout:
     """Where mean, P_xx (upper triangle) and P_xs sit in the packed augmented vector."""
@@ -133,24 +158,8 @@ class CadetSystem:
         mu_s = theta[:ns]
         P_ss = ca.reshape(theta[ns:], ns, ns)
 
-        xs = ca.SX.sym("x", nx)
-        ss = ca.SX.sym("s", ns)
-        fx = self.f(xs, u, ss)
-        F_x_f = ca.Function("F_x", [xs, u, ss], [ca.jacobian(fx, xs), ca.jacobian(fx, ss)])
-        F_x, F_s = F_x_f(m, u, mu_s)
-
-        mdot = self.f(m, u, mu_s)
-        if self.second_order:
-            # 0.5 tr(H_i P) over the augmented covariance; the P_ss block matters
-            # because f is nonlinear in s through products like (1 + s) * rho * v^2.
-            zaug = ca.vertcat(xs, ss)
-            P = ca.blockcat([[P_xx, P_xs], [P_xs.T, P_ss]])
-            corr = []
-            for i in range(nx):
-                H = ca.hessian(fx[i], zaug)[0]
-                H_f = ca.Function("H", [xs, u, ss], [H])
-                corr.append(0.5 * ca.trace(ca.mtimes(H_f(m, u, mu_s), P)))
-            mdot = mdot + ca.vertcat(*corr)
+        mdot, F_x, F_s = mean_rate_and_jacobians(self.f, m, u, mu_s, P_xx, P_xs, P_ss,
+                                                 second_order=self.second_order)
 
         A = ca.mtimes(F_x, P_xx) + ca.mtimes(F_s, P_xs.T)
         Pxx_dot = A + A.T
@@ -316,20 +325,8 @@ class CadetSensitivity:
         u = ca.SX.sym("u", nu)
         theta = ca.SX.sym("theta", self.n_theta)
         m, S, mu_s, P_ss, P_xx, P_xs = self._split(z, theta)
-        xs = ca.SX.sym("x", nx)
-        ss = ca.SX.sym("s", ns)
-        fx = self.f(xs, u, ss)
-        F = ca.Function("F", [xs, u, ss], [ca.jacobian(fx, xs), ca.jacobian(fx, ss)])
-        F_x, F_s = F(m, u, mu_s)
-        mdot = self.f(m, u, mu_s)
-        if self.second_order:
-            zaug = ca.vertcat(xs, ss)
-            P = ca.blockcat([[P_xx, P_xs], [P_xs.T, P_ss]])
-            corr = []
-            for i in range(nx):
-                H = ca.Function("H", [xs, u, ss], [ca.hessian(fx[i], zaug)[0]])
-                corr.append(0.5 * ca.trace(ca.mtimes(H(m, u, mu_s), P)))
-            mdot = mdot + ca.vertcat(*corr)
+        mdot, F_x, F_s = mean_rate_and_jacobians(self.f, m, u, mu_s, P_xx, P_xs, P_ss,
+                                                 second_order=self.second_order)
         Sdot = ca.mtimes(F_x, S)
         Sdot = ca.horzcat(Sdot[:, :r0], Sdot[:, r0:] + F_s) if r0 else Sdot + F_s
         zdot = ca.vertcat(mdot, ca.reshape(Sdot, nx * (r0 + ns), 1))
