@@ -14,6 +14,21 @@ On one segment the state is the degree ``n-1`` polynomial through its values at
 segments (each with its own nodes, linked by state continuity) lets controls
 jump at segment boundaries: this is how a bang-bang thrust switch is
 represented exactly once a boundary sits on the switch.
+
+Two forms of the collocation constraint:
+
+* ``"differential"`` (Fahroo & Ross): ``D @ X = (h/2) F`` at all ``n`` nodes.
+  ``D`` has rank ``n-1`` (its left null vector is ``w_i P_{n-1}(tau_i)``), so
+  with the first node fixed the ``n`` equations overdetermine the ``n-1`` free
+  states by one per state component: they hold only if the controls absorb
+  ``sum_i w_i P_{n-1}(tau_i) f_i = 0``.  Fine where every node has a free
+  control; an arc with no controls (a coast) is then infeasible.
+* ``"integral"``: ``X_i = X_1 + (h/2) sum_j A_ij F_j`` for ``i = 2..n`` with the
+  LGL integration matrix ``A_ij = int_{-1}^{tau_i} l_j`` (``l_j`` the Lagrange
+  basis): ``n-1`` equations for ``n-1`` states, consistent with or without
+  controls, and the same polynomial quadrature.  Its costate estimate is
+  ``lambda_j = -(sum_i nu_i A_ij) / w_j`` (the multipliers are impulses of the
+  costate, summed over the nodes whose integral covers node ``j``).
 """
 from __future__ import annotations
 
@@ -78,6 +93,21 @@ def lgl_weights(n: int) -> np.ndarray:
 def lgl_diff_matrix(n: int) -> np.ndarray:
     """``D`` with ``(D @ p(x))_i = p'(x_i)`` exactly for polynomials of degree <= n-1."""
     return _lgl(n)[2]
+
+
+@lru_cache(maxsize=64)
+def lgl_integration_matrix(n: int) -> np.ndarray:
+    """``A`` (n x n) with ``(A @ p(x))_i = int_{-1}^{x_i} p`` exactly for polynomials
+    of degree <= n-1 (row 0 is zero, row n-1 equals the weights)."""
+    x = lgl_nodes(n)
+    g, gw = np.polynomial.legendre.leggauss(n)
+    A = np.zeros((n, n))
+    for i in range(1, n):
+        half = 0.5 * (x[i] + 1.0)
+        pts = -1.0 + half * (g + 1.0)
+        A[i] = half * gw @ lagrange_matrix(x, pts)
+    A.setflags(write=False)
+    return A
 
 
 def lagrange_matrix(nodes: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -190,7 +220,8 @@ def refine_mesh(mesh: Mesh, *, split: np.ndarray, split_at: dict[int, float] | N
     return Mesh(tuple(out), mesh.nodes)
 
 
-def collocation_constraints(*, dynamics, X, U, params, seg_duration, nodes: int, segments: int):
+def collocation_constraints(*, dynamics, X, U, params, seg_duration, nodes: int, segments: int,
+                            form: str = "differential"):
     """Multi-segment LGL collocation constraints as CasADi expressions.
 
     ``X`` (nx, segments*nodes) and ``U`` (nu, segments*nodes) hold the node
@@ -203,6 +234,8 @@ def collocation_constraints(*, dynamics, X, U, params, seg_duration, nodes: int,
     the last node of a segment and the first of the next.  With
     ``defects``' multipliers ``nu``, the costate estimate is ``-nu_i / w_i``
     (Fahroo & Ross 2001, sign for CasADi's Lagrangian ``f + lam_g' g``).
+    With ``form="integral"`` (see the module docstring) ``defects`` is
+    (nx, segments*(nodes-1)): ``X_i - X_1 - (h_k/2) (A F)_i`` for ``i >= 2``.
     """
     import casadi as ca
 
@@ -214,7 +247,14 @@ def collocation_constraints(*, dynamics, X, U, params, seg_duration, nodes: int,
     hs = ca.SX.sym("hs")
     ps = ca.SX.sym("ps", params.shape[0])
     F = dynamics.map(nodes)(Xs, Us, ps)
-    seg = ca.Function("lgl_segment", [Xs, Us, hs, ps], [ca.mtimes(Xs, ca.DM(D.T)) - 0.5 * hs * F])
+    if form == "differential":
+        defect = ca.mtimes(Xs, ca.DM(D.T)) - 0.5 * hs * F
+    elif form == "integral":
+        A = lgl_integration_matrix(nodes)[1:]
+        defect = Xs[:, 1:] - ca.repmat(Xs[:, 0], 1, nodes - 1) - 0.5 * hs * ca.mtimes(F, ca.DM(A.T))
+    else:
+        raise ValueError(f"unknown collocation form {form!r}")
+    seg = ca.Function("lgl_segment", [Xs, Us, hs, ps], [defect])
     defects = seg.map(segments)(X, U, seg_duration, params)
     last = [k * nodes + nodes - 1 for k in range(segments - 1)]
     first = [(k + 1) * nodes for k in range(segments - 1)]
