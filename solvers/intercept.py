@@ -17,13 +17,15 @@ The paper uses Battin-Vaughan's Lambert algorithm and reports 1501.73 m/s at
 4328 s does not reach the target, so the paper's figure cannot be reproduced.
 
 ``solve`` dispatches over ``problem.methods``; a method is a function
-``(problem, *, on_progress, should_stop) -> <Method>Solution`` registered in
-``METHODS`` (the finite-thrust method lives in ``solvers/intercept_thrust.py``).
+``(problem, *, on_progress, should_stop, initial_guess, earlier) -> <Method>Solution``
+registered in ``METHODS`` (``earlier``: the impulsive solution when it ran
+first; the finite-thrust method lives in ``solvers/intercept_thrust.py`` and
+starts from the impulsive answer).
 """
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable
 
 import numpy as np
@@ -33,6 +35,7 @@ from solvers.astro.elements import Elements, elements_to_state
 from solvers.astro.kepler import propagate
 from solvers.astro.lambert import lambert
 from solvers.common import Outcome, ProgressFn, SolveStatus, StopFn, never_stop, noop_progress
+from solvers.intercept_thrust import MeshOptions
 
 MU_EARTH = 398600.4418e9   # m^3/s^2 (spec; the paper's value)
 G0 = 9.80665               # m/s^2, standard gravity; the paper's fuel figures use 9.8
@@ -79,6 +82,7 @@ class InterceptProblem:
     g0: float = G0
     methods: tuple[str, ...] = ("impulsive",)
     scan: ScanSettings = field(default_factory=ScanSettings)
+    mesh: MeshOptions = field(default_factory=MeshOptions)   # finite-thrust collocation
     porkchop: PorkchopSettings | None = None
 
 
@@ -297,17 +301,91 @@ def _porkchop(problem: InterceptProblem, r0i, v0i, r0t, v0t, branches, progress)
     return Porkchop(t_man, t_int, grid, float("nan"), float("nan"), float("nan"))
 
 
-METHODS: dict[str, Callable[..., object]] = {"impulsive": solve_impulsive}
+def _impulsive_start(problem: InterceptProblem, earlier: ImpulsiveSolution | None, progress, stop):
+    """Warm start for the finite-thrust method: ``(ImpulsiveGuess, tf_s, impulsive solution)``.
+
+    Fixed tf: the impulsive optimum at the same interception time (reused if
+    the impulsive method already ran).  Free tf: the best single impulse over
+    the tf bounds, found on a maneuver x interception-time map; delta-v is
+    multimodal in tf (the geometry repeats with the target's period), so a
+    local NLP started elsewhere would keep the nearest local optimum.
+    """
+    from solvers.intercept_thrust import ImpulsiveGuess
+
+    tf = problem.intercept_time_s
+    base = replace(problem, porkchop=None, scan=replace(problem.scan, t_end_s=None, t_start_s=0.0))
+    if problem.free_final_time:
+        lo, hi = problem.tf_bounds_s
+        r0i, v0i = elements_to_state(problem.mu, problem.interceptor_orbit)
+        r0t, v0t = elements_to_state(problem.mu, problem.target_orbit)
+        pc_problem = replace(base, porkchop=PorkchopSettings(
+            t_man_points=240, t_intercept_points=max(41, int((hi - lo) / 60.0) + 1), t_man_min_s=0.0,
+            t_man_max_s=hi, t_intercept_min_s=lo, t_intercept_max_s=hi))
+        pc = _porkchop(pc_problem, r0i, v0i, r0t, v0t, _branches(base.scan), progress)
+        if np.isfinite(pc.best_t_intercept_s):
+            tf = pc.best_t_intercept_s
+        earlier = None
+    if earlier is None or not earlier.status.ok or abs(earlier.intercept_time_s - tf) > 1e-9:
+        earlier = solve_impulsive(replace(base, intercept_time_s=tf, scan=replace(base.scan, step_s=5.0)),
+                                  should_stop=stop)
+    if not np.all(np.isfinite(earlier.delta_v_vector_mps)):
+        return None, tf, earlier
+    return ImpulsiveGuess(earlier.best_t_man_s, earlier.delta_v_vector_mps), tf, earlier
+
+
+def solve_finite(problem: InterceptProblem, *, on_progress: ProgressFn | None = None,
+                 should_stop: StopFn | None = None, initial_guess=None,
+                 earlier: ImpulsiveSolution | None = None):
+    """Method I (``solvers.intercept_thrust``) on this scenario.
+
+    ``initial_guess``: a ``TrajectoryGuess`` (e.g. from a stored job); without
+    one the impulsive answer is the warm start.  ``earlier``: an impulsive
+    solution already computed for this problem, reused when it fits.
+    """
+    from solvers.intercept_thrust import FiniteThrustProblem, FiniteThrustSolution, solve_finite_thrust
+
+    progress = on_progress or noop_progress
+    ri, vi = elements_to_state(problem.mu, problem.interceptor_orbit)
+    rt, vt = elements_to_state(problem.mu, problem.target_orbit)
+    tf = problem.intercept_time_s
+    warm = "trajectory of a stored solution"
+    if initial_guess is None:
+        progress(0.0, "impulsive warm start")
+        initial_guess, tf, imp = _impulsive_start(problem, earlier, progress, should_stop)
+        if initial_guess is None:
+            return FiniteThrustSolution(status=SolveStatus(
+                Outcome.INFEASIBLE, solver_status="no_warm_start",
+                message="no single-impulse transfer reaches the target, so there is no warm start "
+                        f"({imp.status.message})"))
+        warm = (f"impulsive optimum: {np.linalg.norm(initial_guess.delta_v_mps):.2f} m/s at "
+                f"t_man {initial_guess.t_man_s:.1f} s, interception at {tf:.1f} s")
+    fp = FiniteThrustProblem(
+        r_interceptor_m=ri, v_interceptor_mps=vi, r_target_m=rt, v_target_mps=vt,
+        mass_kg=problem.mass_kg, propellant_kg=problem.propellant_kg, isp_s=problem.isp_s,
+        max_thrust_n=problem.max_thrust_n, g0_mps2=problem.g0, mu_m3_s2=problem.mu, tf_s=tf,
+        free_final_time=problem.free_final_time, tf_min_s=problem.tf_bounds_s[0],
+        tf_max_s=problem.tf_bounds_s[1], mesh=problem.mesh)
+    sol = solve_finite_thrust(fp, initial_guess=initial_guess,
+                              on_progress=lambda f, m: progress(0.05 + 0.95 * f, m), should_stop=should_stop)
+    sol.warm_start = warm
+    return sol
+
+
+def _run_impulsive(problem, *, on_progress=None, should_stop=None, initial_guess=None, earlier=None):
+    return solve_impulsive(problem, on_progress=on_progress, should_stop=should_stop)
+
+
+METHODS: dict[str, Callable[..., object]] = {"impulsive": _run_impulsive, "finite_thrust": solve_finite}
 
 
 def solve(problem: InterceptProblem, *, initial_guess=None, on_progress: ProgressFn | None = None,
           should_stop: StopFn | None = None, seed=None) -> InterceptSolution:
     """Run every method in ``problem.methods`` in order; the overall status is the worst one.
 
-    ``initial_guess`` and ``seed`` are accepted for the common protocol; the
-    impulsive scan needs neither.
+    ``initial_guess`` (a ``TrajectoryGuess``) warm-starts the finite-thrust
+    method; ``seed`` is accepted for the common protocol.
     """
-    del initial_guess, seed
+    del seed
     progress = on_progress or noop_progress
     out = InterceptSolution(status=SolveStatus(Outcome.OPTIMAL))
     methods = list(problem.methods)
@@ -319,10 +397,11 @@ def solve(problem: InterceptProblem, *, initial_guess=None, on_progress: Progres
         def sub_progress(fraction, message, k=k):
             progress((k + fraction) / len(methods), f"{name}: {message}")
 
-        res = METHODS[name](problem, on_progress=sub_progress, should_stop=should_stop)
+        res = METHODS[name](problem, on_progress=sub_progress, should_stop=should_stop,
+                            initial_guess=initial_guess, earlier=out.impulsive)
         setattr(out, name, res)
         if worst is None or res.status.outcome is not Outcome.OPTIMAL:
-            worst = res.status
+            worst = replace(res.status, message=f"{name}: {res.status.message}") if len(methods) > 1 else res.status
         if res.status.outcome is Outcome.CANCELLED:
             break
     if worst is not None:

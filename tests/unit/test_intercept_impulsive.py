@@ -143,20 +143,33 @@ def test_kind_run_preset_impulsive_only():
     assert res["finite_thrust"] is None and res["notes"]
 
 
-def test_kind_finite_thrust_placeholder_and_porkchop():
-    from solvers.intercept import METHODS
+def test_kind_runs_both_methods_with_porkchop():
+    """Default methods: the impulsive scan, its porkchop, and the finite-thrust
+    solution warm-started from it, compared in one table."""
     params = Params.model_validate({"scan": {"step_s": 20.0},
                                     "porkchop": {"enabled": True, "t_man_points": 10, "t_intercept_points": 8}})
     out = run(params, Ctx())
-    assert out.status == "succeeded"
+    assert out.status == "succeeded", out.error
     res = out.result
     json.dumps(res, allow_nan=False)
-    if "finite_thrust" not in METHODS:
-        assert res["finite_thrust"]["status"] == "not_implemented"
-        assert any("finite_thrust" in n for n in res["notes"])
     pc = res["impulsive"]["porkchop"]
     assert len(pc["delta_v_mps"]) == 10 and len(pc["delta_v_mps"][0]) == 8
     assert pc["best"]["delta_v_mps"] > 0
+    ft = res["finite_thrust"]
+    assert ft["status"] == "optimal"
+    assert abs(ft["fuel_kg"] - 270.84) <= 1.0                       # spec reference, 1 kg
+    assert ft["verification"]["miss_distance_m"] < 100.0
+    assert "impulsive optimum" in ft["warm_start"]
+    tr = ft["trajectory"]
+    n = len(tr["t_s"])
+    assert n > 50 and all(len(tr[k]) == n for k in ("x_m", "vy_mps", "thrust_z_n", "thrust_n", "mass_kg"))
+    assert max(tr["thrust_n"]) <= 2000.0 * (1 + 1e-6)
+    rows = {r["method"]: r for r in res["comparison"]}
+    assert set(rows) == {"impulsive", "finite_thrust"}
+    # finite burns lose to gravity, but the short second burn at t=0 wins nearly all of it back:
+    # 271.42 kg against the impulse's 271.39 kg
+    assert 0.0 < rows["finite_thrust"]["fuel_kg"] - rows["impulsive"]["fuel_kg"] < 0.1
+    assert any("233.5" in n for n in res["notes"])
 
 
 @pytest.mark.parametrize("bad,field", [

@@ -8,7 +8,7 @@ from solvers.astro.kepler import propagate
 from solvers.common import Outcome
 from solvers.intercept import InterceptProblem, ScanSettings, solve_impulsive
 from solvers.intercept_thrust import (
-    FiniteThrustProblem, ImpulsiveGuess, TrajectoryGuess, solve_finite_thrust,
+    FiniteThrustProblem, ImpulsiveGuess, MeshOptions, TrajectoryGuess, solve_finite_thrust,
 )
 from solvers.models import relative_motion as rm
 
@@ -17,6 +17,10 @@ D = np.radians
 INTERCEPTOR = Elements(16678.137e3, 0.2, D(28.5), 0.0, 0.0, D(1.54))
 TARGET = Elements(6878.137e3, 0.0, D(30.0), 0.0, 0.0, D(2.05))
 REFERENCE_FUEL_KG = 270.84     # spec: careful reimplementation, 200-interval multiple shooting, g0 9.80665
+# Ours: switch times solved for exactly; the same to 1e-5 kg on a mesh of twice the nodes, and
+# benchmarks/intercept.py's multiple-shooting baseline gives 271.45-271.50 kg. The spec's 270.84 kg
+# is about 0.6 kg low (its discretization); the issue's target is 1 kg around it.
+CONVERGED_FUEL_KG = 271.418
 
 
 def _problem(**kw):
@@ -70,43 +74,57 @@ def test_casadi_and_numpy_dynamics_agree():
 
 
 def test_fixed_tf_fuel_and_repropagated_miss(fixed_tf):
-    """Numbers of the (feasible, possibly uncertified) fixed-tf solution."""
     sol = fixed_tf
-    # feasible even when IPOPT does not certify optimality (it stalls: open problem)
-    assert sol.status.outcome in (Outcome.OPTIMAL, Outcome.NOT_CONVERGED), sol.status.message
+    assert sol.status.outcome is Outcome.OPTIMAL, sol.status.message
     assert sol.status.max_constraint_violation < 1e-6, sol.status.message
-    assert abs(sol.fuel_kg - REFERENCE_FUEL_KG) <= 1.0, sol.fuel_kg
+    assert abs(sol.fuel_kg - REFERENCE_FUEL_KG) <= 1.0, sol.fuel_kg           # the issue's target
+    assert sol.fuel_kg == pytest.approx(CONVERGED_FUEL_KG, abs=0.01)
     assert sol.tf_s == pytest.approx(8080.5, abs=1e-6)
     v = sol.verification
-    assert v["miss_distance_m"] < 100.0, v
-    # the re-propagated propellant agrees with the collocation's to 0.01 kg
-    assert abs(v["propellant_kg"] - sol.fuel_kg) < 0.01
-    # burn structure: the main burn lies near the impulsive optimum (2870-3350 s)
-    main = max(sol.burns, key=lambda b: b["duration_s"])
-    assert 2800.0 < main["start_s"] < 3000.0 and 3250.0 < main["end_s"] < 3400.0, sol.burns
+    assert v["miss_distance_m"] < 10.0, v                                     # target: 100 m
+    assert abs(v["propellant_kg"] - sol.fuel_kg) < 0.001
+    # switching structure: a short burn at t=0 (found by the switching function, not guessed)
+    # and the main burn around the impulsive optimum (spec: 2870-3270 s)
+    assert [b["kind"] for b in sol.burns] == ["burn", "burn"], sol.burns
+    first, main = sol.burns
+    assert first["start_s"] < 1e-3 and 9.0 < first["duration_s"] < 10.5, first
+    assert 2865.0 < main["start_s"] < 2880.0 and 3255.0 < main["end_s"] < 3270.0, main
     assert np.max(np.linalg.norm(sol.thrust_n, axis=0)) <= 2000.0 * (1 + 1e-6)
     assert sol.states[6, 0] == pytest.approx(500.0)
     np.testing.assert_allclose(sol.states[:3, -1], 0.0, atol=1e-6)
+    assert sol.status.iterations < 100
 
 
-def test_optimality_diagnostics_that_hold(fixed_tf):
-    """Covector mapping: lambda_m(tf) = dJ/dm = -1, and thrust along -lambda_v in the burns.
-
-    Not asserted (open problem, see the closing note of issue 5): IPOPT does not
-    certify this solution (it stalls feasible to 1e-8), and the Hamiltonian varies
-    by 26-46% of its term scale along the trajectory instead of staying constant.
-    """
+def test_optimality_conditions_hold(fixed_tf):
+    """Pontryagin, from the collocation multipliers (covector mapping, integral form):
+    the Hamiltonian is constant and equals -dJ/dtf, lambda_m(tf) = dJ/dm_f = -1, the switching
+    function is positive exactly on the burns, and the thrust points along -lambda_v."""
     o = fixed_tf.optimality
-    assert o["costate_mass_final"] == pytest.approx(-1.0, abs=1e-3)
-    assert o["thrust_primer_alignment_min_cos"] > 0.999
+    assert o["hamiltonian_relative_variation"] < 1e-5, o       # (max - min) / term scale
+    assert o["hamiltonian_relative_error"] < 1e-6, o           # mean vs -dJ/dtf from the tf multiplier
+    assert o["costate_mass_final"] == pytest.approx(-1.0, abs=1e-6)
+    assert o["switching_function_agreement"] == 1.0 and o["nodes_checked"] > 50, o
+    assert o["switching_function_max_on_coasts"] < 0.0, o
+    assert o["thrust_primer_alignment_min_cos"] > 1.0 - 1e-9
+
+
+def test_mesh_independence(impulsive, fixed_tf):
+    """Sixteen nodes per segment and half the segment lengths: the same answer."""
+    fine = solve_finite_thrust(_problem(mesh=MeshOptions(nodes=16, coast_segment_s=500.0, burn_segment_s=100.0)),
+                               initial_guess=impulsive)
+    assert fine.status.outcome is Outcome.OPTIMAL, fine.status.message
+    assert fine.fuel_kg == pytest.approx(fixed_tf.fuel_kg, abs=1e-3)
+    assert fine.burns[-1]["start_s"] == pytest.approx(fixed_tf.burns[-1]["start_s"], abs=0.01)
 
 
 def test_warm_start_from_stored_trajectory_gives_same_answer(fixed_tf):
     sol = fixed_tf
     again = solve_finite_thrust(_problem(), initial_guess=TrajectoryGuess(sol.t_s, sol.states, sol.thrust_n))
     assert again.status.outcome is Outcome.OPTIMAL, again.status.message
-    assert again.fuel_kg == pytest.approx(sol.fuel_kg, abs=0.05)
-    assert again.verification["miss_distance_m"] < 100.0
+    assert again.fuel_kg == pytest.approx(sol.fuel_kg, abs=0.001)
+    assert again.verification["miss_distance_m"] < 10.0
+    assert len(again.history) == 1                      # the burn structure came with the guess
+    assert again.history[0]["iterations"] < sol.history[0]["iterations"] + sol.history[-1]["iterations"]
 
 
 def test_cancellation_returns_cancelled(impulsive):
@@ -120,3 +138,52 @@ def test_cancellation_returns_cancelled(impulsive):
     assert sol.status.outcome is Outcome.CANCELLED
     assert sol.status.solver_status == "User_Requested_Stop"
     assert sol.status.iterations <= 5
+
+
+def test_paper_single_segment_60_nodes_misses_when_reflown(impulsive):
+    """The paper's transcription (one 60-node LGL segment, free throttle): IPOPT converges
+    near the right fuel, but a polynomial cannot hold the burn's jumps, and re-flying the
+    controls misses by kilometres (spec pitfall); the result says so instead of 'optimal'."""
+    mesh = MeshOptions(structure="free_throttle", segments=1, nodes=60, refine=False, max_iterations=3000)
+    sol = solve_finite_thrust(_problem(mesh=mesh), initial_guess=impulsive)
+    assert abs(sol.fuel_kg - CONVERGED_FUEL_KG) < 1.0
+    assert sol.verification["miss_distance_m"] > 1000.0
+    assert sol.status.outcome is Outcome.NOT_CONVERGED and "re-propagated miss" in sol.status.message
+
+
+def test_infeasible_propellant_is_reported_clearly(impulsive):
+    sol = solve_finite_thrust(_problem(propellant_kg=150.0), initial_guess=impulsive)
+    assert sol.status.outcome is Outcome.INFEASIBLE
+    assert "150 kg of propellant" in sol.status.message
+
+
+def _free(upper):
+    from solvers.intercept import InterceptProblem, solve_finite
+    return solve_finite(InterceptProblem(INTERCEPTOR, TARGET, free_final_time=True, tf_bounds_s=(2000.0, upper)))
+
+
+def test_free_final_time_within_2000_12000():
+    """Free tf in [2000, 12000] s: an interior optimum (H = 0, tf off its bounds) at about
+    10091 s with 174.78 kg, started from the best single impulse of the porkchop over the bounds."""
+    sol = _free(12000.0)
+    assert sol.status.outcome is Outcome.OPTIMAL, sol.status.message
+    assert 10000.0 < sol.tf_s < 10200.0, sol.tf_s
+    assert sol.fuel_kg == pytest.approx(174.78, abs=0.05)
+    assert sol.verification["miss_distance_m"] < 10.0
+    o = sol.optimality
+    assert o["hamiltonian_expected"] == 0.0
+    assert abs(o["hamiltonian_mean"]) / o["hamiltonian_scale"] < 1e-6, o
+    assert o["hamiltonian_relative_variation"] < 1e-5, o
+
+
+def test_free_final_time_fuel_falls_with_the_upper_bound():
+    """A larger upper bound admits every earlier answer, so the best fuel can only fall;
+    it does, until the interior optimum near 10091 s is inside the bounds."""
+    fuel = []
+    for upper in (8080.5, 9300.0, 12000.0):
+        sol = _free(upper)
+        assert sol.status.outcome is Outcome.OPTIMAL, (upper, sol.status.message)
+        assert sol.tf_s <= upper + 1e-3     # IPOPT relaxes bounds by 1e-8 (relative)
+        fuel.append(sol.fuel_kg)
+    assert fuel[0] > fuel[1] > fuel[2], fuel
+    assert fuel[0] <= CONVERGED_FUEL_KG + 0.01      # no worse than fixed tf = 8080.5 s

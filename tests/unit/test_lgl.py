@@ -4,7 +4,8 @@ import pytest
 from numpy.polynomial import legendre as npleg
 
 from solvers.transcription.lgl import (
-    Mesh, lagrange_matrix, lgl_diff_matrix, lgl_nodes, lgl_weights, refine_mesh,
+    Mesh, collocation_constraints, lagrange_matrix, lgl_diff_matrix, lgl_integration_matrix, lgl_nodes,
+    lgl_weights, refine_mesh,
 )
 
 
@@ -70,3 +71,38 @@ def test_mesh_interpolation_and_refinement():
     np.testing.assert_allclose(m2.boundaries, [0, 0.25, 0.3, 0.5, 0.75, 0.875, 1.0])
     with pytest.raises(ValueError):
         Mesh((0.0, 0.6, 0.5, 1.0), 5)
+
+
+@pytest.mark.parametrize("n", [3, 6, 10, 30])
+def test_integration_matrix_integrates_degree_n_minus_1_exactly(n):
+    x, A = lgl_nodes(n), lgl_integration_matrix(n)
+    rng = np.random.default_rng(n)
+    c = rng.normal(size=n)
+    antider = npleg.legint(c, lbnd=-1.0)
+    np.testing.assert_allclose(A @ npleg.legval(x, c), npleg.legval(x, antider), atol=1e-12 * np.abs(c).sum())
+    np.testing.assert_allclose(A[-1], lgl_weights(n), atol=1e-14)
+    assert not A[0].any()
+
+
+def test_integral_form_solves_a_control_free_ode_where_the_differential_form_cannot():
+    """x' = -x on one segment from x(-1) = 1: the integral form has a solution (exact to the
+    quadrature's order); the differential form's n equations on n-1 free states do not."""
+    import casadi as ca
+    from scipy.optimize import least_squares
+    n = 8
+    x_sym, u_sym, p_sym = ca.SX.sym("x"), ca.SX.sym("u", 0), ca.SX.sym("p", 0)
+    f = ca.Function("f", [x_sym, u_sym, p_sym], [-x_sym])
+    Xf = ca.SX.sym("X", 1, n - 1)
+    X = ca.horzcat(ca.DM(1.0), Xf)
+    res = {}
+    for form in ("integral", "differential"):
+        d, _ = collocation_constraints(dynamics=f, X=X, U=ca.SX(0, n), params=ca.SX(0, 1),
+                                       seg_duration=ca.DM(2.0), nodes=n, segments=1, form=form)
+        F = ca.Function("F", [Xf], [ca.vec(d)])
+        J = ca.Function("J", [Xf], [ca.jacobian(ca.vec(d), Xf)])
+        sol = least_squares(lambda z: np.asarray(F(z)).ravel(), np.ones(n - 1),
+                            jac=lambda z: np.asarray(J(z)), xtol=1e-15, ftol=1e-15, gtol=1e-15)
+        res[form] = (np.max(np.abs(sol.fun)), sol.x)
+    assert res["integral"][0] < 1e-13
+    np.testing.assert_allclose(res["integral"][1], np.exp(-(lgl_nodes(n)[1:] + 1.0)), rtol=1e-7)
+    assert res["differential"][0] > 1e-7        # overdetermined: no exact solution
