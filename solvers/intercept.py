@@ -319,7 +319,7 @@ def _impulsive_start(problem: InterceptProblem, earlier: ImpulsiveSolution | Non
         r0i, v0i = elements_to_state(problem.mu, problem.interceptor_orbit)
         r0t, v0t = elements_to_state(problem.mu, problem.target_orbit)
         pc_problem = replace(base, porkchop=PorkchopSettings(
-            t_man_points=240, t_intercept_points=max(41, int((hi - lo) / 60.0) + 1), t_man_min_s=0.0,
+            t_man_points=240, t_intercept_points=int(np.clip((hi - lo) / 60.0, 40, 400)) + 1, t_man_min_s=0.0,
             t_man_max_s=hi, t_intercept_min_s=lo, t_intercept_max_s=hi))
         pc = _porkchop(pc_problem, r0i, v0i, r0t, v0t, _branches(base.scan), progress)
         if np.isfinite(pc.best_t_intercept_s):

@@ -412,7 +412,8 @@ def _layout_for(plan: _Plan, opts: MeshOptions, s: _Scaled) -> _Layout:
 
     def add(kind, t0, t1):
         seg_s = opts.burn_segment_s if kind == "burn" else opts.coast_segment_s
-        arcs.append(Arc(kind, max(1, int(np.ceil((t1 - t0) * T / seg_s - 1e-9)))))
+        n = np.ceil((t1 - t0) * T / seg_s - 1e-9)
+        arcs.append(Arc(kind, int(np.clip(n, 1, max(1, opts.max_segments // 4)))))
         sigma.append((t1 - t0) / plan.tf)
 
     for a, b in sorted(plan.windows):
@@ -589,13 +590,16 @@ def _optimality(s: _Scaled, layout: _Layout, mesh: Mesh, X, U, tf, lam: np.ndarr
     agree = (sw > 0) == on
     burning = on & interior & (lam_v > 0)
     cosang = -np.sum(U[1:] * lam[3:6], axis=0) / np.maximum(lam_v * np.linalg.norm(U[1:], axis=0), 1e-300)
-    expected = 0.0 if free_tf else float(-lam_tf)
+    # H = -dJ/dtf, read off the multiplier of tf's bounds: zero for a free tf off its
+    # bounds, the price of the bound where it is fixed or pinned at a bound
+    expected = float(-lam_tf)
     out = {
         "hamiltonian_mean": float(np.mean(Hi)),
         "hamiltonian_std": float(np.std(Hi)),
         "hamiltonian_relative_variation": float((np.max(Hi) - np.min(Hi)) / scale),
         "hamiltonian_expected": expected,
         "hamiltonian_relative_error": float(abs(np.mean(Hi) - expected) / scale),
+        "tf_free_and_off_bounds": bool(free_tf and abs(lam_tf) < 1e-9 * max(scale, 1.0)),
         "hamiltonian_scale": scale,
         "hamiltonian_units": "nondimensional (mass m0, time 1/n)",
         "costate_mass_final": float(lam[6, -1]),

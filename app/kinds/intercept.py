@@ -107,9 +107,9 @@ class FiniteThrustParams(StrictModel):
 
     nodes_per_segment: int = Field(10, ge=4, le=40, description="LGL nodes per collocation segment",
                                    examples=[10])
-    coast_segment_s: float = Field(1000.0, gt=0, description="Initial segment length on coast arcs",
+    coast_segment_s: float = Field(1000.0, ge=50.0, le=1e5, description="Initial segment length on coast arcs",
                                    examples=[1000.0])
-    burn_segment_s: float = Field(250.0, gt=0, description="Initial segment length on burn arcs",
+    burn_segment_s: float = Field(250.0, ge=5.0, le=1e4, description="Initial segment length on burn arcs",
                                   examples=[250.0])
     miss_tolerance_m: float = Field(100.0, gt=0, description="Refine the mesh until the re-propagated "
                                     "trajectory misses the target by less than this", examples=[100.0])
