@@ -147,6 +147,8 @@ class FiniteThrustSolution:
     mesh: dict = field(default_factory=dict)
     history: list[dict] = field(default_factory=list)
     warm_start: str = ""
+    # along the nodes: t_s, hamiltonian, switching_function (nondimensional), interior (bool)
+    optimality_history: dict = field(default_factory=dict)
 
 
 # ----------------------------------------------------------------------------- layout
@@ -610,7 +612,8 @@ def _optimality(s: _Scaled, layout: _Layout, mesh: Mesh, X, U, tf, lam: np.ndarr
         "nodes_checked": int(decided.sum()),
         "thrust_primer_alignment_min_cos": float(np.min(cosang[burning])) if burning.any() else 1.0,
     }
-    return out, {"t": mesh.node_fractions().ravel() * tf, "H": H, "switching": sw, "interior": interior}
+    return out, {"t_s": mesh.node_fractions().ravel() * tf * s.sc.time_s, "hamiltonian": H,
+                 "switching_function": sw, "interior": interior}
 
 
 def _missing_burn(layout: _Layout, mesh: Mesh, X, U, tf, s: _Scaled, lam) -> _Layout | None:
@@ -810,7 +813,7 @@ def solve_finite_thrust(problem: FiniteThrustProblem, *, initial_guess: Impulsiv
     else:
         sol.burns = _burns_from_throttle(t, U[0], mesh, problem)
     if lam is not None:
-        sol.optimality, sol._diag = _optimality(s, layout, mesh, X, U, tf, lam, float(res.lam_x[i_tf]),
+        sol.optimality, sol.optimality_history = _optimality(s, layout, mesh, X, U, tf, lam, float(res.lam_x[i_tf]),
                                                 problem.free_final_time)
     if status.ok and verification and verification["miss_distance_m"] > opts.miss_tolerance_m:
         # the NLP converged, but its trajectory is not what the controls fly:

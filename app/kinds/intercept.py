@@ -327,7 +327,9 @@ def finite_result(sol, params: Params) -> dict:
                    "build_time_s": s.build_time_s, "max_constraint_violation": s.max_constraint_violation,
                    "total_time_s": _clean(s.details.get("total_time_s"))},
         "verification": _clean_dict(sol.verification) or None,
-        "optimality": _clean_dict(sol.optimality) or None,
+        "optimality": ({**_clean_dict(sol.optimality),
+                        "along_trajectory": {k: _clean(v) for k, v in sol.optimality_history.items()}}
+                       if sol.optimality else None),
         "mesh": _clean_dict(sol.mesh) or None,
         "history": _clean_dict(sol.history),
     })
