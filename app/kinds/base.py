@@ -89,6 +89,17 @@ class KindSpec:
     summary: str = ""
 
 
+def warm_start_from_job(ctx: JobContext, job_id: str, parse, *, field: str, what: str):
+    """``parse(stored result)`` of another job as a warm start; a user-facing
+    :class:`JobFailure` naming ``field`` when the job is missing or unusable."""
+    try:
+        return parse(ctx.load_result(job_id))
+    except LookupError as exc:
+        raise JobFailure("internal", f"{field}: {exc}") from None
+    except (KeyError, TypeError, ValueError) as exc:
+        raise JobFailure("internal", f"{field}: job {job_id} has no usable {what} ({exc})") from None
+
+
 def outcome_from_status(status, result: dict | None) -> RunOutcome:
     """Turn a solver's :class:`solvers.common.SolveStatus` into a :class:`RunOutcome`."""
     from solvers.common import Outcome

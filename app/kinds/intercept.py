@@ -14,7 +14,9 @@ from typing import Literal
 
 from pydantic import Field, field_validator, model_validator
 
-from app.kinds.base import JobContext, JobFailure, KindSpec, Preset, RunOutcome, StrictModel, outcome_from_status
+from app.kinds.base import (
+    JobContext, KindSpec, Preset, RunOutcome, StrictModel, outcome_from_status, warm_start_from_job,
+)
 
 MAX_SCAN_POINTS = 2_000_000
 MAX_PORKCHOP_POINTS = 250_000
@@ -383,13 +385,8 @@ def run(params: Params, ctx: JobContext) -> RunOutcome:
     guess = None
     job = params.finite_thrust.from_job
     if job and "finite_thrust" in params.methods:
-        try:
-            guess = _trajectory_guess(ctx.load_result(job))
-        except LookupError as exc:
-            raise JobFailure("internal", f"finite_thrust.from_job: {exc}") from None
-        except (KeyError, TypeError, ValueError) as exc:
-            raise JobFailure("internal", f"finite_thrust.from_job: job {job} has no usable finite-thrust "
-                             f"trajectory ({exc})") from None
+        guess = warm_start_from_job(ctx, job, _trajectory_guess, field="finite_thrust.from_job",
+                                    what="finite-thrust trajectory")
         notes.append(f"finite thrust warm-started from job {job}")
     sol = solver.solve(problem, initial_guess=guess, on_progress=ctx.progress, should_stop=ctx.should_stop)
     result: dict = {"impulsive": None, "finite_thrust": None, "notes": notes}

@@ -11,7 +11,9 @@ from typing import Literal
 
 from pydantic import Field, field_validator, model_validator
 
-from app.kinds.base import JobContext, JobFailure, KindSpec, Preset, RunOutcome, StrictModel, outcome_from_status
+from app.kinds.base import (
+    JobContext, KindSpec, Preset, RunOutcome, StrictModel, outcome_from_status, warm_start_from_job,
+)
 
 FT = 0.3048
 BETTS_HEAT_LIMIT_W_M2 = 794955.0   # 70 BTU/ft^2/s
@@ -320,14 +322,8 @@ def run(params: Params, ctx: JobContext) -> RunOutcome:
     notes = []
     if params.initial_guess.from_job:
         job = params.initial_guess.from_job
-        try:
-            stored = ctx.load_result(job)
-            guess = _guess_from_result(stored)
-        except LookupError as exc:
-            raise JobFailure("internal", f"initial_guess.from_job: {exc}") from None
-        except (KeyError, TypeError, ValueError) as exc:
-            raise JobFailure("internal", f"initial_guess.from_job: job {job} has no usable "
-                             f"reentry trajectory ({exc})") from None
+        guess = warm_start_from_job(ctx, job, _guess_from_result, field="initial_guess.from_job",
+                                    what="reentry trajectory")
         notes.append(f"warm-started from job {job}")
     ctx.progress(0.0, "building the multiple-shooting NLP")
     sol = rs.solve(problem, initial_guess=guess, on_progress=ctx.progress, should_stop=ctx.should_stop)

@@ -15,7 +15,9 @@ from typing import Literal
 from pydantic import Field, model_validator
 
 from app.kinds import reentry as rk
-from app.kinds.base import JobContext, JobFailure, KindSpec, Preset, RunOutcome, StrictModel, outcome_from_status
+from app.kinds.base import (
+    JobContext, JobFailure, KindSpec, Preset, RunOutcome, StrictModel, outcome_from_status, warm_start_from_job,
+)
 
 
 class UncertainParameter(StrictModel):
@@ -209,12 +211,8 @@ def run(params: Params, ctx: JobContext) -> RunOutcome:
     notes: list[str] = []
     if params.initial_guess.from_job:
         job = params.initial_guess.from_job
-        try:
-            guess = rk._guess_from_result(ctx.load_result(job))
-        except LookupError as exc:
-            raise JobFailure("internal", f"initial_guess.from_job: {exc}") from None
-        except (KeyError, TypeError, ValueError) as exc:
-            raise JobFailure("internal", f"initial_guess.from_job: job {job} has no usable trajectory ({exc})") from None
+        guess = warm_start_from_job(ctx, job, rk._guess_from_result, field="initial_guess.from_job",
+                                    what="trajectory")
         notes.append(f"deterministic stage warm-started from job {job}")
     ctx.progress(0.0, "deterministic design (DO)")
     sol = rr.solve(problem, initial_guess=guess, on_progress=lambda f, m: ctx.progress(0.8 * f, m),
