@@ -16,7 +16,7 @@ from pydantic import Field, model_validator
 
 from app.kinds import reentry as rk
 from app.kinds.base import (
-    JobContext, JobFailure, KindSpec, Preset, RunOutcome, StrictModel, outcome_from_status, warm_start_from_job,
+    JobContext, KindSpec, Preset, RunOutcome, StrictModel, outcome_from_status, warm_start_from_job,
 )
 
 
