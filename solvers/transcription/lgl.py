@@ -1,12 +1,11 @@
 """Legendre-Gauss-Lobatto (LGL) pseudospectral collocation: nodes, weights,
-differentiation matrix, Lagrange interpolation, and a multi-segment mesh with
-h-refinement.
+differentiation and integration matrices, Lagrange interpolation, a
+multi-segment mesh, and the collocation constraints in two forms.
 
 Sources: Fahroo & Ross, "Costate estimation by a Legendre pseudospectral
 method", JGCD 24(2), 2001 (nodes, weights, D-matrix eq. 8-10, covector
-mapping lambda_i = nu_i / w_i); Betts, *Practical Methods for Optimal Control*,
-2nd ed., sec. 4.7 (mesh refinement by splitting intervals where the local
-error is large).
+mapping lambda_i = nu_i / w_i).  Refinement (which segments to split) belongs
+to the solver using the mesh: see ``solvers.intercept_thrust``.
 
 On one segment the state is the degree ``n-1`` polynomial through its values at
 ``n`` LGL nodes ``tau in [-1, 1]``; the collocation constraint is
@@ -193,31 +192,6 @@ class Mesh:
             idx = seg == k
             out[:, idx] = values[:, k, :] @ lagrange_matrix(nodes, tau[idx]).T
         return out
-
-
-def refine_mesh(mesh: Mesh, *, split: np.ndarray, split_at: dict[int, float] | None = None,
-                min_fraction: float = 1e-5, max_segments: int = 400) -> Mesh:
-    """h-refinement: split each flagged segment.
-
-    ``split`` is a boolean per segment; ``split_at`` optionally gives, per
-    segment, the normalized time where the split should go (a control switch,
-    so the new boundary lands on the discontinuity); otherwise the segment is
-    halved.  Pieces shorter than ``min_fraction`` are not created (the switch
-    is then already resolved to that precision).
-    """
-    split_at = split_at or {}
-    b = list(mesh.boundaries)
-    out = [b[0]]
-    for k in range(mesh.segments):
-        lo, hi = b[k], b[k + 1]
-        if split[k] and len(out) - 1 + (mesh.segments - k) < max_segments:
-            cut = split_at.get(k, 0.5 * (lo + hi))
-            if cut - lo >= min_fraction and hi - cut >= min_fraction:
-                out.append(float(cut))
-            elif hi - lo >= 2 * min_fraction and k not in split_at:
-                out.append(0.5 * (lo + hi))
-        out.append(hi)
-    return Mesh(tuple(out), mesh.nodes)
 
 
 def collocation_constraints(*, dynamics, X, U, params, seg_duration, nodes: int, segments: int,

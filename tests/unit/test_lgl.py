@@ -5,7 +5,7 @@ from numpy.polynomial import legendre as npleg
 
 from solvers.transcription.lgl import (
     Mesh, collocation_constraints, lagrange_matrix, lgl_diff_matrix, lgl_integration_matrix, lgl_nodes,
-    lgl_weights, refine_mesh,
+    lgl_weights,
 )
 
 
@@ -60,15 +60,12 @@ def test_lagrange_matrix_reproduces_polynomials_and_nodes():
     np.testing.assert_allclose(lagrange_matrix(x, x), np.eye(n), atol=0)
 
 
-def test_mesh_interpolation_and_refinement():
+def test_mesh_interpolation():
     mesh = Mesh.uniform(4, 6)
     s = mesh.node_fractions()
     vals = np.sin(3 * s)[None]
     fine = np.linspace(0, 1, 101)
     np.testing.assert_allclose(mesh.interpolate(vals, fine)[0], np.sin(3 * fine), atol=1e-5)
-    m2 = refine_mesh(mesh, split=np.array([False, True, False, True]), split_at={1: 0.3})
-    assert m2.segments == 6
-    np.testing.assert_allclose(m2.boundaries, [0, 0.25, 0.3, 0.5, 0.75, 0.875, 1.0])
     with pytest.raises(ValueError):
         Mesh((0.0, 0.6, 0.5, 1.0), 5)
 
