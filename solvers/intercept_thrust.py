@@ -782,6 +782,9 @@ def solve_finite_thrust(problem: FiniteThrustProblem, *, initial_guess: Impulsiv
         res_last = res
         res, layout, X, U, tf, verification, lam, i_tf = best
         status = replace(res.status, details={"last_round": res_last.status.message})
+        if res_last.status.outcome is Outcome.CANCELLED:
+            # cancelled while refining: the job is cancelled; the last converged mesh is its partial result
+            status = replace(res_last.status, details={"partial_result": "last converged mesh"})
     else:
         status = res.status
         lam = None

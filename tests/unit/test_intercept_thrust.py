@@ -140,6 +140,22 @@ def test_cancellation_returns_cancelled(impulsive):
     assert sol.status.iterations <= 5
 
 
+def test_cancellation_in_a_later_round_is_still_cancelled(impulsive):
+    """Cancelled while the second mesh is solving: the answer is the first mesh's, the status
+    says cancelled (not optimal)."""
+    first = solve_finite_thrust(_problem(mesh=MeshOptions(refine=False)), initial_guess=impulsive)
+    n_first = first.status.iterations
+    calls = []
+
+    def stop():
+        calls.append(1)
+        return len(calls) > n_first + 3
+
+    sol = solve_finite_thrust(_problem(), initial_guess=impulsive, should_stop=stop)
+    assert sol.status.outcome is Outcome.CANCELLED, sol.status
+    assert len(sol.history) == 2 and sol.fuel_kg == pytest.approx(first.fuel_kg, abs=1e-6)
+
+
 def test_paper_single_segment_60_nodes_misses_when_reflown(impulsive):
     """The paper's transcription (one 60-node LGL segment, free throttle): IPOPT converges
     near the right fuel, but a polynomial cannot hold the burn's jumps, and re-flying the
