@@ -67,7 +67,8 @@ def list_jobs(
     kind: Annotated[str | None, Query(description="Only this kind")] = None,
     status: Annotated[JobStatus | None, Query(description="Only this status")] = None,
     limit: Annotated[int, Query(ge=1, le=500)] = 50,
-    offset: Annotated[int, Query(ge=0)] = 0,
+    # bounded: SQLite and PostgreSQL take a signed 64-bit OFFSET, and a larger one was a 500
+    offset: Annotated[int, Query(ge=0, le=2**62)] = 0,
 ):
     if kind is not None and kind not in KINDS:
         raise HTTPException(status_code=422, detail=f"kind must be one of {sorted(KINDS)}")
