@@ -32,12 +32,12 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from solvers.astro.elements import Elements, elements_to_state
+from solvers.astro.j2 import MU_EARTH   # m^3/s^2, the spec's (and paper's) value
 from solvers.astro.kepler import propagate
 from solvers.astro.lambert import lambert
 from solvers.common import Outcome, ProgressFn, SolveStatus, StopFn, never_stop, noop_progress
 from solvers.intercept_thrust import MeshOptions
 
-MU_EARTH = 398600.4418e9   # m^3/s^2 (spec; the paper's value)
 G0 = 9.80665               # m/s^2, standard gravity; the paper's fuel figures use 9.8
 
 
@@ -78,8 +78,8 @@ class InterceptProblem:
     intercept_time_s: float = 8080.5
     free_final_time: bool = False
     tf_bounds_s: tuple[float, float] = (6000.0, 10200.0)
-    mu: float = MU_EARTH
-    g0: float = G0
+    mu_m3_s2: float = MU_EARTH
+    g0_mps2: float = G0
     methods: tuple[str, ...] = ("impulsive",)
     scan: ScanSettings = field(default_factory=ScanSettings)
     mesh: MeshOptions = field(default_factory=MeshOptions)   # finite-thrust collocation
@@ -169,7 +169,7 @@ def solve_impulsive(problem: InterceptProblem, *, on_progress: ProgressFn | None
     progress = on_progress or noop_progress
     stop = should_stop or never_stop
     t_start = time.perf_counter()
-    mu, t1 = problem.mu, problem.intercept_time_s
+    mu, t1 = problem.mu_m3_s2, problem.intercept_time_s
     scan = problem.scan
     r0i, v0i = elements_to_state(mu, problem.interceptor_orbit)
     r0t, v0t = elements_to_state(mu, problem.target_orbit)
@@ -241,7 +241,7 @@ def solve_impulsive(problem: InterceptProblem, *, on_progress: ProgressFn | None
     sol.best_t_man_s = t_best
     sol.best_delta_v_mps = dv_best
     sol.delta_v_vector_mps = dvec
-    sol.fuel_kg = float(fuel_kg(problem.mass_kg, dv_best, problem.isp_s, problem.g0))
+    sol.fuel_kg = float(fuel_kg(problem.mass_kg, dv_best, problem.isp_s, problem.g0_mps2))
     sol.best_branch = branch
     sol.burn_position_m = r_b
     sol.velocity_before_mps = v_b
@@ -278,8 +278,8 @@ def _porkchop(problem: InterceptProblem, r0i, v0i, r0t, v0t, branches, progress)
     tm_hi = ti_hi if pc.t_man_max_s is None else pc.t_man_max_s
     t_man = np.linspace(pc.t_man_min_s, tm_hi, pc.t_man_points, endpoint=pc.t_man_max_s is not None)
     t_int = np.linspace(ti_lo, ti_hi, pc.t_intercept_points)
-    r_m, v_m = propagate(problem.mu, r0i, v0i, t_man)
-    r_i, _ = propagate(problem.mu, r0t, v0t, t_int)
+    r_m, v_m = propagate(problem.mu_m3_s2, r0i, v0i, t_man)
+    r_i, _ = propagate(problem.mu_m3_s2, r0t, v0t, t_int)
     tm_g, ti_g = np.meshgrid(t_man, t_int, indexing="ij")
     ok = (ti_g - tm_g).ravel() > 0.0
     rm = np.repeat(r_m, t_int.size, axis=0)[ok]
@@ -289,7 +289,7 @@ def _porkchop(problem: InterceptProblem, r0i, v0i, r0t, v0t, branches, progress)
     best = np.full(ok.size, np.inf)
     sub = np.full(ok.sum(), np.inf)
     for branch in branches:
-        dv, _ = _delta_v(problem.mu, rm, vm, ri, tof, branch)
+        dv, _ = _delta_v(problem.mu_m3_s2, rm, vm, ri, tof, branch)
         d = np.linalg.norm(dv, axis=1)
         sub = np.where(np.isfinite(d) & (d < sub), d, sub)
     best[ok] = sub
@@ -316,8 +316,8 @@ def _impulsive_start(problem: InterceptProblem, earlier: ImpulsiveSolution | Non
     base = replace(problem, porkchop=None, scan=replace(problem.scan, t_end_s=None, t_start_s=0.0))
     if problem.free_final_time:
         lo, hi = problem.tf_bounds_s
-        r0i, v0i = elements_to_state(problem.mu, problem.interceptor_orbit)
-        r0t, v0t = elements_to_state(problem.mu, problem.target_orbit)
+        r0i, v0i = elements_to_state(problem.mu_m3_s2, problem.interceptor_orbit)
+        r0t, v0t = elements_to_state(problem.mu_m3_s2, problem.target_orbit)
         pc_problem = replace(base, porkchop=PorkchopSettings(
             t_man_points=240, t_intercept_points=int(np.clip((hi - lo) / 60.0, 40, 400)) + 1, t_man_min_s=0.0,
             t_man_max_s=hi, t_intercept_min_s=lo, t_intercept_max_s=hi))
@@ -345,8 +345,8 @@ def solve_finite(problem: InterceptProblem, *, on_progress: ProgressFn | None = 
     from solvers.intercept_thrust import FiniteThrustProblem, FiniteThrustSolution, solve_finite_thrust
 
     progress = on_progress or noop_progress
-    ri, vi = elements_to_state(problem.mu, problem.interceptor_orbit)
-    rt, vt = elements_to_state(problem.mu, problem.target_orbit)
+    ri, vi = elements_to_state(problem.mu_m3_s2, problem.interceptor_orbit)
+    rt, vt = elements_to_state(problem.mu_m3_s2, problem.target_orbit)
     tf = problem.intercept_time_s
     warm = "trajectory of a stored solution"
     if initial_guess is None:
@@ -362,7 +362,7 @@ def solve_finite(problem: InterceptProblem, *, on_progress: ProgressFn | None = 
     fp = FiniteThrustProblem(
         r_interceptor_m=ri, v_interceptor_mps=vi, r_target_m=rt, v_target_mps=vt,
         mass_kg=problem.mass_kg, propellant_kg=problem.propellant_kg, isp_s=problem.isp_s,
-        max_thrust_n=problem.max_thrust_n, g0_mps2=problem.g0, mu_m3_s2=problem.mu, tf_s=tf,
+        max_thrust_n=problem.max_thrust_n, g0_mps2=problem.g0_mps2, mu_m3_s2=problem.mu_m3_s2, tf_s=tf,
         free_final_time=problem.free_final_time, tf_min_s=problem.tf_bounds_s[0],
         tf_max_s=problem.tf_bounds_s[1], mesh=problem.mesh)
     sol = solve_finite_thrust(fp, initial_guess=initial_guess,

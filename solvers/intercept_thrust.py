@@ -50,6 +50,7 @@ import casadi as ca
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from solvers.astro.j2 import MU_EARTH
 from solvers.common import Outcome, ProgressFn, SolveStatus, StopFn
 from solvers.models import relative_motion as rm
 from solvers.transcription.lgl import (
@@ -57,7 +58,6 @@ from solvers.transcription.lgl import (
 )
 from solvers.transcription.nlp import NLPSolver, cached_solver
 
-MU_EARTH = 3.986004418e14
 ARC_KINDS = ("coast", "burn", "free")
 
 
@@ -463,9 +463,8 @@ def _resample(old: _Layout, sigma_old, X, U, tf, new: _Layout, direction=None):
     mesh_old, mesh_new = old.mesh(sigma_old), new.mesh()
     vals = np.concatenate([X, U]).reshape((rm.NX + rm.NU, mesh_old.segments, mesh_old.nodes))
     tc = _control_times(mesh_new, 1.0)
-    out = mesh_old.interpolate(vals, tc)
-    Xn, Un = out[: rm.NX], out[rm.NX:]
-    Xn[:, :] = mesh_old.interpolate(vals[: rm.NX], mesh_new.node_fractions().ravel())
+    Xn = mesh_old.interpolate(vals[: rm.NX], mesh_new.node_fractions().ravel())
+    Un = mesh_old.interpolate(vals[rm.NX:], tc)
     thr = new.throttle()
     Un[0] = np.where(np.isnan(thr), np.clip(Un[0], 0.0, 1.0), thr)
     nrm = np.linalg.norm(Un[1:], axis=0)

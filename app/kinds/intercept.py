@@ -232,7 +232,7 @@ def to_problem(params: Params):
                               argp=0.0, nu=r(t.arg_latitude_deg)),
         mass_kg=i.mass_kg, propellant_kg=i.propellant_kg, isp_s=i.isp_s, max_thrust_n=i.max_thrust_n,
         intercept_time_s=params.intercept_time_s, free_final_time=params.free_final_time,
-        tf_bounds_s=(params.tf_bounds_s[0], params.tf_bounds_s[1]), mu=params.mu_m3_s2, g0=params.g0_mps2,
+        tf_bounds_s=(params.tf_bounds_s[0], params.tf_bounds_s[1]), mu_m3_s2=params.mu_m3_s2, g0_mps2=params.g0_mps2,
         methods=tuple(params.methods),
         scan=ScanSettings(step_s=params.scan.step_s, t_start_s=params.scan.t_start_s,
                           t_end_s=params.scan.t_end_s, max_revolutions=params.scan.max_revolutions,

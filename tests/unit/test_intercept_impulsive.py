@@ -80,7 +80,7 @@ def test_scan_is_the_grid_and_refinement_is_the_minimum(paper_solution):
 def test_scan_point_matches_a_direct_single_lambert():
     # the value at one grid time agrees with an independent scalar computation
     from solvers.astro.lambert import lambert
-    mu = PAPER.mu
+    mu = PAPER.mu_m3_s2
     ri, vi = elements_to_state(mu, PAPER.interceptor_orbit)
     rt, vt = elements_to_state(mu, PAPER.target_orbit)
     r_t1, _ = propagate(mu, rt, vt, 8080.5)
@@ -195,5 +195,5 @@ def test_params_validation_names_the_rule(bad, field):
 def test_spec_and_problem_conversion():
     assert SPEC.kind == "intercept" and SPEC.params_model is Params
     prob = to_problem(Params())
-    assert prob.g0 == 9.80665 and prob.mu == 398600.4418e9
+    assert prob.g0_mps2 == 9.80665 and prob.mu_m3_s2 == 398600.4418e9
     assert math.isclose(prob.interceptor_orbit.nu, D(1.54)) and prob.target_orbit.e == 0.0
