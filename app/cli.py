@@ -22,9 +22,13 @@ from pathlib import Path
 log = logging.getLogger("trajlab")
 
 
+
 def _worker_command(settings, *, beat: bool, name: str) -> list[str]:
+    from app.broker import QUEUES
+
     cmd = [sys.executable, "-m", "celery", "-A", "worker.celery_app:celery_app", "worker",
-           "--loglevel=INFO", f"--concurrency={settings.worker_concurrency}", "-n", name]
+           "--loglevel=INFO", f"--concurrency={settings.worker_concurrency}", "-n", name,
+           "-Q", ",".join(QUEUES)]
     if beat:
         # One beat per deployment runs the reaper; embedded, it lives in the one worker.
         cmd += ["-B", "--schedule", str(Path(settings.data_dir) / "celerybeat-schedule")]
@@ -107,10 +111,10 @@ def cmd_serve(args: argparse.Namespace) -> int:
     log.info("database %s migrated", settings.database_url)
 
     from app.main import create_app
-    from worker.celery_app import create_celery, publish_job
+    from app.broker import create_publisher, publish_job
 
     db = get_database(settings.database_url)
-    celery = create_celery(settings)
+    celery = create_publisher(settings)
     # The jobs table is the truth: messages of queued jobs may not have survived a
     # restart of the embedded broker, so publish them again (the attempt token
     # makes a duplicate delivery harmless).  Running jobs of the previous session

@@ -20,14 +20,14 @@ names carry the unit (`altitude_m`, `flight_path_deg`, `tf_s`).
 
 def create_app(settings: Settings | None = None) -> FastAPI:
     from app.routes import health, jobs, lambert, presets  # after settings: routes read the registry
-    from worker.celery_app import create_celery
+    from app.broker import create_publisher
 
     settings = settings or get_settings()
     app = FastAPI(title="trajlab", version="0.1.0", description=DESCRIPTION)
     app.add_exception_handler(RequestValidationError, validation_error_handler)
     app.state.settings = settings
     app.state.db = get_database(settings.database_url)
-    app.state.celery = create_celery(settings)
+    app.state.celery = create_publisher(settings)
     bad_body = {400: {"description": "The body is not valid JSON (e.g. not UTF-8)"}}
     app.include_router(jobs.router, responses=bad_body)
     app.include_router(presets.router)

@@ -59,10 +59,19 @@ class Job(Base):
     worker: Mapped[str | None] = mapped_column(String(200))
     idempotency_key: Mapped[str | None] = mapped_column(String(200), unique=True)
     request_hash: Mapped[str | None] = mapped_column(String(64))
+    # When the current attempt's message was last handed to the broker; None
+    # while it could not be (broker down at submission): the re-publisher sends
+    # every queued job that is unpublished or published long ago and unclaimed.
+    published_at: Mapped[datetime | None] = mapped_column(DateTime(timezone=True))
+    # The broker queue its messages go to (app.broker.QUEUES), chosen at submission.
+    queue: Mapped[str] = mapped_column(String(32), default="trajlab.jobs", server_default="trajlab.jobs")
+    # The owner (API key owner) the job belongs to; None when auth is off.
+    owner: Mapped[str | None] = mapped_column(String(100))
 
     __table_args__ = (
         Index("ix_jobs_created_at", "created_at"),
         Index("ix_jobs_status_kind", "status", "kind"),
+        Index("ix_jobs_owner_created_at", "owner", "created_at"),
     )
 
 

@@ -18,6 +18,7 @@ from typing import Callable
 
 import redis
 
+from app.broker import QUEUE_HEAVY
 from app.kinds.base import JobCancelled
 from solvers.uncertainty.montecarlo import merge_chunks, simulate_chunk
 
@@ -61,7 +62,7 @@ def run_distributed(celery, r: redis.Redis, *, spec: dict, samples: int, seed: i
     ranges = [(i, a, min(chunk_size, samples - a)) for i, a in enumerate(range(0, samples, chunk_size))]
     r.set(spec_key, json.dumps(spec), ex=KEY_TTL_S)
     for i, a, n in ranges:
-        celery.send_task("trajlab.mc_chunk", args=[run_id, i, a, n, seed])
+        celery.send_task("trajlab.mc_chunk", args=[run_id, i, a, n, seed], queue=QUEUE_HEAVY)
     me = f"job@{socket.gethostname()}"
     try:
         for i, a, n in ranges:

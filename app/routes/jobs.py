@@ -13,7 +13,7 @@ from app.deps import CeleryDep, DatabaseDep, SettingsDep
 from app.kinds import KINDS, PRESETS
 from app.params import resolve_params
 from app.schemas import JobList, JobOut, JobStatus, JobSubmission
-from worker.celery_app import publish_job
+from app.broker import publish_job
 
 router = APIRouter(prefix="/v1/jobs", tags=["jobs"])
 

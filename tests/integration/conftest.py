@@ -1,13 +1,14 @@
 """Integration fixtures: real PostgreSQL, real Redis, a real Celery worker process.
 
-``service`` creates a fresh PostgreSQL database and migrates it, flushes a
-dedicated Redis database, starts ``celery worker -B`` as a subprocess with fast
+``service`` creates a fresh PostgreSQL database and migrates it, takes a Redis
+database no other test run holds (so two runs on one machine cannot collide), starts ``celery worker -B`` as a subprocess with fast
 heartbeat/reaper settings, and serves the app through TestClient.  If PostgreSQL
 or Redis is unreachable the run stops with a message naming it and how to start it.
 """
 from __future__ import annotations
 
 import os
+import random
 import signal
 import subprocess
 import sys
@@ -20,6 +21,7 @@ import pytest
 import redis
 from fastapi.testclient import TestClient
 
+from app.broker import QUEUES
 from app.main import create_app
 from app.migrate import upgrade
 from app.settings import Settings
@@ -53,16 +55,36 @@ def pg_url():
     admin.close()
 
 
+RUN_LOCK_KEY = "trajlab:test-run-lock"
+
+
+def claim_redis_db(base_url: str, *, ttl_s: int = 4 * 3600) -> tuple[redis.Redis, str]:
+    """A Redis database of its own for this test run (1-15, not the shared 0).
+
+    Two runs on one machine must not flush each other's queue: a run takes a
+    database whose lock key it can set with NX, and flushes only that one.
+    """
+    base = base_url.rsplit("/", 1)[0] if base_url.rsplit("/", 1)[-1].isdigit() else base_url.rstrip("/")
+    token = uuid.uuid4().hex
+    for db in random.sample(range(1, 16), 15):
+        url = f"{base}/{db}"
+        r = redis.Redis.from_url(url, socket_connect_timeout=5)
+        if r.set(RUN_LOCK_KEY, token, nx=True, ex=ttl_s):
+            r.flushdb()
+            r.set(RUN_LOCK_KEY, token, ex=ttl_s)
+            return r, url
+    raise RuntimeError(f"every Redis database 1-15 at {base} is held by another test run ({RUN_LOCK_KEY})")
+
+
 @pytest.fixture(scope="session")
 def redis_url():
     try:
-        r = redis.Redis.from_url(REDIS_URL, socket_connect_timeout=5)
-        r.ping()
+        redis.Redis.from_url(REDIS_URL, socket_connect_timeout=5).ping()
     except Exception as exc:
         _unreachable("Redis", REDIS_URL, exc)
-    r.flushdb()
-    yield REDIS_URL
-    r.flushdb()
+    r, url = claim_redis_db(REDIS_URL)
+    yield url
+    r.flushdb()  # also releases the run lock
 
 
 class Service:
@@ -81,7 +103,7 @@ class Service:
         self._n += 1
         log = open(self.log_dir / f"worker-{self._n}.log", "wb")
         cmd = [sys.executable, "-m", "celery", "-A", "worker.celery_app:celery_app", "worker", "-B",
-               "--loglevel=INFO", f"--concurrency={concurrency}", "-n", f"it{self._n}-{uuid.uuid4().hex[:6]}@%h",
+               "--loglevel=INFO", f"--concurrency={concurrency}", "-n", f"it{self._n}-{uuid.uuid4().hex[:6]}@%h", "-Q", ",".join(QUEUES),
                "--schedule", str(self.log_dir / f"beat-{self._n}")]
         # Own session: kill_worker() can SIGKILL the whole process group, pool children included.
         self.worker = subprocess.Popen(cmd, cwd=ROOT, env=self.env, stdout=log, stderr=subprocess.STDOUT,
@@ -91,7 +113,8 @@ class Service:
         """Another worker process (no beat), for tests that need two workers."""
         log = open(self.log_dir / "worker-second.log", "ab")
         cmd = [sys.executable, "-m", "celery", "-A", "worker.celery_app:celery_app", "worker",
-               "--loglevel=INFO", "--concurrency=1", "-n", f"second-{uuid.uuid4().hex[:6]}@%h"]
+               "--loglevel=INFO", "--concurrency=1", "-n", f"second-{uuid.uuid4().hex[:6]}@%h",
+               "-Q", ",".join(QUEUES)]
         self.second = subprocess.Popen(cmd, cwd=ROOT, env=self.env, stdout=log, stderr=subprocess.STDOUT,
                                        start_new_session=True)
 

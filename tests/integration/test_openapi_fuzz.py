@@ -8,7 +8,6 @@ from __future__ import annotations
 import os
 
 import pytest
-import redis
 import schemathesis
 from hypothesis import HealthCheck, settings
 from schemathesis.checks import not_a_server_error
@@ -17,10 +16,12 @@ from schemathesis.specs.openapi.checks import status_code_conformance
 from app.main import create_app
 from app.migrate import upgrade
 from app.settings import Settings
+from tests.integration.conftest import REDIS_URL, claim_redis_db
 
 pytestmark = pytest.mark.integration
 
-BROKER = os.environ.get("TRAJLAB_TEST_FUZZ_REDIS", "redis://127.0.0.1:6379/12")
+# A Redis database of this run's own (see conftest): a fixed one could be flushed by a concurrent run.
+_REDIS, BROKER = claim_redis_db(os.environ.get("TRAJLAB_TEST_FUZZ_REDIS", REDIS_URL))
 DB_PATH = f"/tmp/trajlab-fuzz-{os.getpid()}.db"
 upgrade(f"sqlite:///{DB_PATH}")
 APP = create_app(Settings(database_url=f"sqlite:///{DB_PATH}", broker_url=BROKER))
@@ -30,7 +31,7 @@ schema = schemathesis.openapi.from_asgi("/openapi.json", APP)
 @pytest.fixture(scope="module", autouse=True)
 def _clean_broker():
     yield
-    redis.Redis.from_url(BROKER).flushdb()
+    _REDIS.flushdb()
     os.unlink(DB_PATH)
 
 
