@@ -10,6 +10,7 @@ Celery or SQL: the worker supplies a :class:`JobContext`.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any, Callable, Literal, Protocol
 
@@ -87,6 +88,12 @@ class KindSpec:
     run: Callable[[Any, JobContext], RunOutcome]
     presets: list[Preset] = field(default_factory=list)
     summary: str = ""
+
+
+def json_float(x) -> float | None:
+    """The one policy for numbers in results: a non-finite value is ``null``, never ``0.0`` or ``"nan"``."""
+    x = float(x)
+    return x if math.isfinite(x) else None
 
 
 def warm_start_from_job(ctx: JobContext, job_id: str, parse, *, field: str, what: str):

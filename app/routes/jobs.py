@@ -9,6 +9,7 @@ from fastapi import APIRouter, Body, Header, HTTPException, Query, Response
 from fastapi.responses import JSONResponse
 
 from app import jobs
+from app.access import PrincipalDep, not_found, visible_job
 from app.deps import CeleryDep, DatabaseDep, SettingsDep
 from app.kinds import KINDS, PRESETS
 from app.params import resolve_params
@@ -16,10 +17,6 @@ from app.schemas import JobList, JobOut, JobStatus, JobSubmission
 from app.broker import publish_job
 
 router = APIRouter(prefix="/v1/jobs", tags=["jobs"])
-
-
-def _not_found(job_id: str) -> HTTPException:
-    return HTTPException(status_code=404, detail=f"job {job_id} not found")
 
 
 @router.post("", status_code=202, response_model=JobOut,
@@ -77,21 +74,16 @@ def list_jobs(
 
 
 @router.get("/{job_id}", response_model=JobOut, responses={404: {"description": "Unknown job"}})
-def get_job(job_id: str, db: DatabaseDep):
-    job = jobs.get_job(db, job_id)
-    if job is None:
-        raise _not_found(job_id)
-    return jobs.job_to_dict(job)
+def get_job(job_id: str, db: DatabaseDep, principal: PrincipalDep):
+    return jobs.job_to_dict(visible_job(db, job_id, principal))
 
 
 @router.get("/{job_id}/result", responses={
     404: {"description": "Unknown job"},
     409: {"description": "Not succeeded (yet): the body gives the status, the error and any stored diagnostic "
                          "or partial result (e.g. the Pareto front of a cancelled run)"}})
-def get_result(job_id: str, db: DatabaseDep):
-    job = jobs.get_job(db, job_id)
-    if job is None:
-        raise _not_found(job_id)
+def get_result(job_id: str, db: DatabaseDep, principal: PrincipalDep):
+    job = visible_job(db, job_id, principal)
     result = jobs.get_result(db, job_id) if job.status in ("succeeded", "failed", "cancelled") else None
     if job.status != "succeeded":
         return JSONResponse(status_code=409, content={
@@ -101,8 +93,9 @@ def get_result(job_id: str, db: DatabaseDep):
 
 
 @router.post("/{job_id}/cancel", status_code=202, response_model=JobOut, responses={404: {"description": "Unknown job"}})
-def cancel_job(job_id: str, db: DatabaseDep):
+def cancel_job(job_id: str, db: DatabaseDep, principal: PrincipalDep):
+    visible_job(db, job_id, principal)
     job = jobs.request_cancel(db, job_id)
     if job is None:
-        raise _not_found(job_id)
+        raise not_found(job_id)
     return jobs.job_to_dict(job)
