@@ -179,7 +179,13 @@ def main(argv: list[str] | None = None) -> int:
     p.set_defaults(fn=cmd_worker)
     p = sub.add_parser("migrate", help="alembic upgrade head on TRAJLAB_DATABASE_URL")
     p.set_defaults(fn=cmd_migrate)
+    from app import cli_client
+
+    cli_client.add_commands(sub)
     args = parser.parse_args(argv)
+    if getattr(args, "run_client", False):
+        logging.getLogger("httpx").setLevel(logging.WARNING)  # one line per request is noise in a terminal
+        return cli_client.run(args)
     return args.fn(args)
 
 

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pytest
 
-from tests.sse import parse_sse
+from app.client import parse_sse
 
 pytestmark = pytest.mark.integration
 

@@ -1,0 +1,214 @@
+"""``trajlab submit | jobs | show | wait | cancel | result``: the command-line client of any trajlab URL.
+
+Exit codes a script can use: 0 succeeded (or done), 1 failed, 2 bad input
+(the API's 4xx, printed as its one-line message), 3 cancelled, 4 the service
+cannot be reached.  ``--url``/``TRAJLAB_URL`` pick the service (default the
+local one), ``TRAJLAB_API_KEY`` the key.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+EXIT = {"succeeded": 0, "failed": 1, "cancelled": 3}
+EXIT_BAD_INPUT, EXIT_UNREACHABLE = 2, 4
+
+
+def parse_set(items: list[str]) -> dict:
+    """``a.b.c=value`` pairs to a nested dict; a value is JSON when it parses (numbers, lists, null), else a string."""
+    out: dict = {}
+    for item in items:
+        path, sep, raw = item.partition("=")
+        if not sep or not path or any(not p for p in path.split(".")):
+            raise ValueError(f"--set {item!r}: expected path.to.field=value")
+        try:
+            value = json.loads(raw)
+        except ValueError:
+            value = raw
+        node = out
+        *parents, leaf = path.split(".")
+        for p in parents:
+            node = node.setdefault(p, {})
+            if not isinstance(node, dict):
+                raise ValueError(f"--set {item!r}: {p} is set to a value and used as a group")
+        node[leaf] = value
+    return out
+
+
+def deep_merge(base: dict, over: dict) -> dict:
+    out = dict(base)
+    for k, v in over.items():
+        out[k] = deep_merge(out[k], v) if isinstance(v, dict) and isinstance(out.get(k), dict) else v
+    return out
+
+
+def _print_job(job: dict) -> None:
+    print(f"{job['id']}  {job['kind']:<15} {job['status']:<10} {job['progress'] * 100:5.1f}%  "
+          f"{(job.get('label') or '')[:30]:<30} {job['message'][:60]}")
+
+
+def _print_numbers(client, job: dict) -> None:
+    from app.summary import key_numbers
+
+    if job["status"] == "succeeded":
+        numbers = key_numbers(job["kind"], client.result(job["id"]))
+        for name, value in numbers.items():
+            print(f"  {name:<32} {value:.6g}" if isinstance(value, float) else f"  {name:<32} {value}")
+    elif job.get("error"):
+        print(f"  {job['error'].get('code')}: {job['error'].get('message')}", file=sys.stderr)
+
+
+def _follow(client, job_id: str, *, quiet: bool) -> dict:
+    """Wait for the job with a progress bar (rich) fed by its event stream."""
+    if quiet or not sys.stderr.isatty() and not _force_bar():
+        last = [None]
+
+        def line(ev):
+            d = ev["data"]
+            if not quiet and d["message"] != last[0]:
+                last[0] = d["message"]
+                print(f"{d['status']:<10} {d['progress'] * 100:5.1f}%  {d['message']}", file=sys.stderr)
+
+        return client.wait(job_id, on_event=line)
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    # The bar goes to stderr so stdout stays the job id and the numbers (a script can read them).
+    console = Console(stderr=True, force_terminal=_force_bar() or None)
+    with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>5.1f}%"),
+                  TimeElapsedColumn(), TextColumn("{task.fields[message]}"), console=console,
+                  transient=False) as bar:
+        task = bar.add_task(job_id[:8], total=1.0, message="")
+
+        def update(ev):
+            d = ev["data"]
+            bar.update(task, completed=d["progress"], message=f"{d['status']}: {d['message'][:50]}")
+
+        return client.wait(job_id, on_event=update)
+
+
+def _force_bar() -> bool:
+    import os
+
+    return os.environ.get("TRAJLAB_PROGRESS") == "bar"
+
+
+def _client(args):
+    from app.client import Client
+
+    return Client(args.url)
+
+
+def cmd_submit(args) -> int:
+    params: dict = {}
+    if args.params:
+        params = json.loads(Path(args.params).read_text())
+    params = deep_merge(params, parse_set(args.set or []))
+    client = _client(args)
+    job = client.submit(args.kind, preset=args.preset, params=params or None, label=args.label)
+    print(job["id"])
+    if not args.wait:
+        return 0
+    job = _follow(client, job["id"], quiet=args.quiet)
+    _print_job(job)
+    _print_numbers(client, job)
+    return EXIT[job["status"]]
+
+
+def cmd_jobs(args) -> int:
+    page = _client(args).jobs(kind=args.kind, status=args.status, limit=args.limit)
+    for job in page["items"]:
+        _print_job(job)
+    print(f"{len(page['items'])} of {page['total']}", file=sys.stderr)
+    return 0
+
+
+def cmd_show(args) -> int:
+    client = _client(args)
+    job = client.job(args.id)
+    print(json.dumps(job, indent=2))
+    _print_numbers(client, job)
+    return 0
+
+
+def cmd_wait(args) -> int:
+    client = _client(args)
+    job = _follow(client, args.id, quiet=args.quiet)
+    _print_job(job)
+    _print_numbers(client, job)
+    return EXIT[job["status"]]
+
+
+def cmd_cancel(args) -> int:
+    """Cancel, then wait for the job to stop: exit 3 once it is cancelled (0/1 if it finished first)."""
+    client = _client(args)
+    client.cancel(args.id)
+    job = client.wait(args.id, timeout=args.timeout)
+    _print_job(job)
+    return EXIT[job["status"]]
+
+
+def cmd_result(args) -> int:
+    client = _client(args)
+    text = client.result_csv(args.id, args.csv) if args.csv else json.dumps(client.result(args.id), indent=2)
+    if args.out:
+        Path(args.out).write_text(text)
+    else:
+        sys.stdout.write(text if text.endswith("\n") else text + "\n")
+    return 0
+
+
+def add_commands(sub) -> None:
+    def common(p):
+        p.add_argument("--url", help="trajlab service URL (TRAJLAB_URL; default http://127.0.0.1:8000)")
+        p.set_defaults(run_client=True)
+        return p
+
+    p = common(sub.add_parser("submit", help="submit a job (add --wait to follow it with a progress bar)"))
+    p.add_argument("kind")
+    p.add_argument("--preset")
+    p.add_argument("--set", action="append", metavar="PATH=VALUE",
+                   help="override one parameter, e.g. --set grid.intervals=50 (repeatable; JSON values)")
+    p.add_argument("--params", metavar="FILE", help="a JSON file of parameters (--set applies on top)")
+    p.add_argument("--label")
+    p.add_argument("--wait", action="store_true")
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.set_defaults(fn=cmd_submit)
+    p = common(sub.add_parser("jobs", help="list jobs, newest first"))
+    p.add_argument("--kind")
+    p.add_argument("--status")
+    p.add_argument("--limit", type=int, default=20)
+    p.set_defaults(fn=cmd_jobs)
+    for name, fn, help_ in (("show", cmd_show, "a job's document and key numbers"),
+                            ("wait", cmd_wait, "follow a job to its end with a progress bar")):
+        p = common(sub.add_parser(name, help=help_))
+        p.add_argument("id")
+        p.add_argument("--quiet", action="store_true")
+        p.set_defaults(fn=fn)
+    p = common(sub.add_parser("cancel", help="cancel a job and wait until it has stopped (exit 3)"))
+    p.add_argument("id")
+    p.add_argument("--timeout", type=float, default=120.0)
+    p.set_defaults(fn=cmd_cancel)
+    p = common(sub.add_parser("result", help="a succeeded job's result as JSON, or one table as CSV"))
+    p.add_argument("id")
+    p.add_argument("--csv", metavar="TABLE")
+    p.add_argument("--out", metavar="FILE")
+    p.set_defaults(fn=cmd_result)
+
+
+def run(args) -> int:
+    """Run a client command; API errors become their one-line message and an exit code, never a traceback."""
+    from app.client import TrajlabError
+
+    try:
+        return args.fn(args)
+    except TrajlabError as exc:
+        print(f"trajlab: {exc.message}", file=sys.stderr)
+        return EXIT_UNREACHABLE if exc.status_code == 0 else (1 if exc.status_code >= 500 else EXIT_BAD_INPUT)
+    except (ValueError, OSError) as exc:
+        print(f"trajlab: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        return 130

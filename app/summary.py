@@ -1,0 +1,38 @@
+"""The key numbers of a job's result, as the CLI, the console and trade tables show them.
+
+A kind declares its own (``KindSpec.key_numbers``); for a kind that has not,
+the scalar fields of the result's top three levels stand in.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+MAX_GENERIC = 10
+
+
+def _generic(result: dict, prefix: str = "", depth: int = 0, out: dict | None = None) -> dict[str, Any]:
+    """Scalars breadth-first: the top level's first, then one and two levels down."""
+    out = {} if out is None else out
+    for key, value in result.items():
+        if len(out) >= MAX_GENERIC:
+            return out
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            out[f"{prefix}{key}"] = value
+    for key, value in result.items():
+        if isinstance(value, dict) and depth < 2:
+            _generic(value, f"{prefix}{key}.", depth + 1, out)
+    return out
+
+
+def key_numbers(kind: str, result: dict | None) -> dict[str, Any]:
+    if not result:
+        return {}
+    from app.kinds import KINDS
+
+    pick = getattr(KINDS.get(kind), "key_numbers", None)
+    if pick is not None:
+        try:
+            return dict(pick(result))
+        except (KeyError, TypeError, ValueError):
+            pass  # an older stored result without the fields the kind picks now
+    return _generic(result)

@@ -1,0 +1,88 @@
+"""The command-line client against a live service (uvicorn on 127.0.0.1, a real worker, PostgreSQL, Redis)."""
+from __future__ import annotations
+
+import os
+import socket
+import subprocess
+import sys
+import threading
+import time
+
+import pytest
+import uvicorn
+
+from app.cli_client import parse_set
+
+pytestmark = pytest.mark.integration
+
+LONG_MIDCOURSE = {"mode": "optimize", "corrections": 2, "population": 100, "generations": 2500, "seed": 7}
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+def live_url(service):
+    port = _free_port()
+    server = uvicorn.Server(uvicorn.Config(service.client.app, host="127.0.0.1", port=port, log_level="warning"))
+    thread = threading.Thread(target=server.run, daemon=True)
+    thread.start()
+    deadline = time.monotonic() + 20
+    while not server.started:
+        assert time.monotonic() < deadline, "uvicorn did not start"
+        time.sleep(0.05)
+    yield f"http://127.0.0.1:{port}"
+    server.should_exit = True
+    thread.join(timeout=10)
+
+
+def _trajlab(url: str, *args: str, timeout: float = 180) -> subprocess.CompletedProcess:
+    env = {**os.environ, "TRAJLAB_URL": url, "TRAJLAB_PROGRESS": "bar"}
+    return subprocess.run([sys.executable, "-m", "app.cli", *args], env=env, capture_output=True, text=True,
+                          timeout=timeout)
+
+
+def test_parse_set_nests_paths_and_reads_json_values():
+    assert parse_set(["grid.intervals=50", "methods=[\"impulsive\"]", "label=x y", "a.b.c=null"]) == {
+        "grid": {"intervals": 50}, "methods": ["impulsive"], "label": "x y", "a": {"b": {"c": None}}}
+    with pytest.raises(ValueError):
+        parse_set(["grid..intervals=5"])
+
+
+def test_submit_wait_shows_progress_and_the_numbers(live_url):
+    p = _trajlab(live_url, "submit", "intercept", "--preset", "long-range-intercept",
+                 "--set", 'methods=["impulsive"]', "--label", "cli", "--wait")
+    assert p.returncode == 0, p.stderr
+    job_id = p.stdout.splitlines()[0].strip()
+    assert len(job_id) == 32
+    assert "100.0%" in p.stderr  # the progress bar reached the end
+    assert "succeeded" in p.stdout
+    numbers = {line.split()[0]: line.split()[1] for line in p.stdout.splitlines()[2:] if line.startswith("  ")}
+    dv = [float(v) for k, v in numbers.items() if "delta_v_mps" in k]
+    assert dv and dv[0] == pytest.approx(2302.48, abs=0.01), p.stdout
+    shown = _trajlab(live_url, "jobs", "--kind", "intercept")
+    assert shown.returncode == 0 and job_id in shown.stdout
+
+
+def test_bad_set_exits_2_with_the_api_message(live_url):
+    p = _trajlab(live_url, "submit", "reentry", "--preset", "betts-max-crossrange", "--set", "grid.intervals=-5")
+    assert p.returncode == 2
+    assert "grid.intervals" in p.stderr and "Traceback" not in p.stderr
+    p = _trajlab(live_url, "show", "doesnotexist")
+    assert p.returncode == 2 and "not found" in p.stderr
+
+
+def test_cancel_exits_3(live_url, service):
+    job = service.submit("midcourse", preset="upper-stage-two-corrections", params=LONG_MIDCOURSE).json()
+    service.wait(job["id"], until=("running",), timeout=60)
+    p = _trajlab(live_url, "cancel", job["id"])
+    assert p.returncode == 3, (p.stdout, p.stderr)
+    assert service.client.get(f"/v1/jobs/{job['id']}").json()["status"] == "cancelled"
+
+
+def test_unreachable_service_exits_4():
+    p = _trajlab(f"http://127.0.0.1:{_free_port()}", "jobs")
+    assert p.returncode == 4 and "cannot reach" in p.stderr
