@@ -19,7 +19,7 @@ names carry the unit (`altitude_m`, `flight_path_deg`, `tf_s`).
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:
-    from app.routes import events, health, jobs, lambert, presets  # after settings: routes read the registry
+    from app.routes import console, events, health, jobs, lambert, presets  # after settings: routes read the registry
     from app.broker import create_publisher
 
     settings = settings or get_settings()
@@ -31,6 +31,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     bad_body = {400: {"description": "The body is not valid JSON (e.g. not UTF-8)"}}
     app.include_router(jobs.router, responses=bad_body)
     app.include_router(events.router)
+    app.include_router(console.router)
+    console.mount_static(app)
     app.include_router(presets.router)
     app.include_router(lambert.router, responses=bad_body)
     app.include_router(health.router)

@@ -2,41 +2,23 @@
 from __future__ import annotations
 
 import os
-import socket
 import subprocess
 import sys
-import threading
-import time
 
 import pytest
-import uvicorn
 
 from app.cli_client import parse_set
+from tests.integration.live import free_port, live_server
 
 pytestmark = pytest.mark.integration
 
 LONG_MIDCOURSE = {"mode": "optimize", "corrections": 2, "population": 100, "generations": 2500, "seed": 7}
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 @pytest.fixture(scope="module")
 def live_url(service):
-    port = _free_port()
-    server = uvicorn.Server(uvicorn.Config(service.client.app, host="127.0.0.1", port=port, log_level="warning"))
-    thread = threading.Thread(target=server.run, daemon=True)
-    thread.start()
-    deadline = time.monotonic() + 20
-    while not server.started:
-        assert time.monotonic() < deadline, "uvicorn did not start"
-        time.sleep(0.05)
-    yield f"http://127.0.0.1:{port}"
-    server.should_exit = True
-    thread.join(timeout=10)
+    with live_server(service.client.app) as url:
+        yield url
 
 
 def _trajlab(url: str, *args: str, timeout: float = 180) -> subprocess.CompletedProcess:
@@ -84,5 +66,5 @@ def test_cancel_exits_3(live_url, service):
 
 
 def test_unreachable_service_exits_4():
-    p = _trajlab(f"http://127.0.0.1:{_free_port()}", "jobs")
+    p = _trajlab(f"http://127.0.0.1:{free_port()}", "jobs")
     assert p.returncode == 4 and "cannot reach" in p.stderr

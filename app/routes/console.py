@@ -1,0 +1,135 @@
+"""The web console at ``/``: server-rendered pages (Jinja2) over the public API, no build step.
+
+The pages are shells rendered with what is public (kinds, presets); the job
+data is fetched by a little plain JavaScript (``app/web/static/console.js``)
+from the same ``/v1`` routes any client uses, with the API key the console
+asks for once (kept in the browser's localStorage).  So the console shows
+exactly what that key may see, and nothing here bypasses ``app/access.py``.
+Nothing is loaded from the internet.
+"""
+from __future__ import annotations
+
+import io
+from pathlib import Path
+from typing import Annotated
+
+from fastapi import APIRouter, HTTPException, Query, Request
+from fastapi.concurrency import run_in_threadpool
+from fastapi.responses import HTMLResponse, Response
+from fastapi.templating import Jinja2Templates
+
+from app import jobs
+from app.access import PrincipalDep, visible_job
+from app.deps import DatabaseDep
+from app.kinds import KINDS, PRESETS
+
+WEB = Path(__file__).resolve().parent.parent / "web"
+templates = Jinja2Templates(directory=str(WEB / "templates"))
+router = APIRouter(include_in_schema=False)
+
+# Where each kind takes a warm start from a stored job (the "warm start" button fills it in).
+WARM_START_FIELD = {"reentry": "initial_guess.from_job", "robust_reentry": "initial_guess.from_job",
+                    "intercept": "finite_thrust.from_job"}
+
+
+def _page(request: Request, name: str, **context) -> HTMLResponse:
+    kinds = {k: {"summary": s.summary, "presets": [p.name for p in s.presets]} for k, s in KINDS.items()}
+    return templates.TemplateResponse(request, name, {"kinds": kinds, "warm_fields": WARM_START_FIELD,
+                                                      **context})
+
+
+@router.get("/", response_class=HTMLResponse)
+def job_list(request: Request):
+    return _page(request, "jobs.html", title="Jobs")
+
+
+@router.get("/new", response_class=HTMLResponse)
+def new_job(request: Request):
+    presets = {name: {"kind": p.kind, "description": p.description} for name, p in PRESETS.items()}
+    return _page(request, "new.html", title="New job", presets=presets)
+
+
+@router.get("/jobs/{job_id}", response_class=HTMLResponse)
+def job_page(request: Request, job_id: str):
+    return _page(request, "job.html", title=f"Job {job_id[:8]}", job_id=job_id)
+
+
+@router.get("/compare", response_class=HTMLResponse)
+def compare_page(request: Request, ids: str = ""):
+    return _page(request, "compare.html", title="Compare", ids=ids)
+
+
+MAX_COMPARE = 8
+
+
+@router.get("/console/compare.png")
+async def compare_png(db: DatabaseDep, principal: PrincipalDep,
+                      ids: Annotated[str, Query(max_length=MAX_COMPARE * 33)]):
+    """Two or more succeeded jobs of one kind overlaid on one plot (PNG)."""
+    job_ids = [i for i in ids.split(",") if i][:MAX_COMPARE]
+    if len(job_ids) < 2:
+        raise HTTPException(status_code=422, detail="compare needs at least two job ids")
+    loaded = []
+    for job_id in job_ids:
+        job = await run_in_threadpool(visible_job, db, job_id, principal)
+        if job.status != "succeeded":
+            raise HTTPException(status_code=409, detail=f"job {job_id} is {job.status}; compare needs succeeded jobs")
+        loaded.append((job, await run_in_threadpool(jobs.get_result, db, job_id)))
+    if len({job.kind for job, _ in loaded}) != 1:
+        raise HTTPException(status_code=422, detail="compare needs jobs of one kind")
+    png = await run_in_threadpool(render_compare, loaded)
+    return Response(png, media_type="image/png", headers={"Cache-Control": "private, max-age=3600"})
+
+
+def _series(kind: str, result: dict):
+    """(x, y, x label, y label, style) of the curve that best shows a job of this kind."""
+    if kind in ("reentry", "robust_reentry"):
+        tr = result["trajectory"]
+        return ([v / 1000 if v is not None else None for v in tr["speed_mps"]],
+                [v / 1000 if v is not None else None for v in tr["altitude_m"]],
+                "speed (km/s)", "altitude (km)", "-")
+    if kind == "midcourse":
+        front = sorted(result["pareto_front"], key=lambda p: p["delta_v_mps"])
+        return ([p["delta_v_mps"] for p in front], [p["position_error_m"] for p in front],
+                "total delta-v (m/s)", "final position error (m)", "o-")
+    if kind == "intercept":
+        if result.get("finite_thrust"):
+            tr = result["finite_thrust"]["trajectory"]
+            return tr["t_s"], tr["mass_kg"], "time (s)", "mass (kg)", "-"
+        scan = result["impulsive"]["scan"]
+        return scan["t_man_s"], scan["delta_v_mps"], "maneuver time (s)", "delta-v (m/s)", "-"
+    raise HTTPException(status_code=422, detail=f"no comparison plot for kind {kind}")
+
+
+def render_compare(loaded) -> bytes:
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(8, 5), dpi=100)
+    ax = fig.add_subplot()
+    kind = loaded[0][0].kind
+    for job, result in loaded:
+        x, y, xlabel, ylabel, style = _series(kind, result)
+        ax.plot(x, y, style, ms=3, lw=1.5, label=job.label or job.id[:8])
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(f"{kind}: {len(loaded)} jobs compared")
+    ax.grid(True, alpha=0.3)
+    ax.legend()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    return buf.getvalue()
+
+
+@router.get("/console/jobs/{job_id}/numbers")
+def job_numbers(job_id: str, db: DatabaseDep, principal: PrincipalDep) -> dict:
+    """The key numbers the job page shows (the same as the CLI's): empty until the job succeeded."""
+    from app.summary import key_numbers
+
+    job = visible_job(db, job_id, principal)
+    return key_numbers(job.kind, jobs.get_result(db, job_id)) if job.status == "succeeded" else {}
+
+
+def mount_static(app) -> None:
+    from fastapi.staticfiles import StaticFiles
+
+    app.mount("/console/static", StaticFiles(directory=str(WEB / "static")), name="console-static")

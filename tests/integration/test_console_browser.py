@@ -1,0 +1,95 @@
+"""The web console in a real headless Chromium (Debian's package, driven by Playwright) against the real stack.
+
+Every request the browser makes is recorded: none may leave 127.0.0.1.
+"""
+from __future__ import annotations
+
+import shutil
+from urllib.parse import urlparse
+
+import pytest
+
+from tests.integration.live import live_server
+
+pytestmark = [pytest.mark.integration, pytest.mark.browser]
+
+CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
+ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+        "--disable-component-update", "--disable-sync", "--no-first-run", "--disable-quic"]
+LONG_MIDCOURSE = {"mode": "optimize", "corrections": 2, "population": 100, "generations": 2500, "seed": 7}
+IMPULSIVE = {"methods": ["impulsive"]}
+
+
+@pytest.fixture(scope="module")
+def browser_page(service):
+    sync_api = pytest.importorskip("playwright.sync_api")
+    if not shutil.which("chromium"):
+        pytest.fail("Debian's chromium is not installed (.ci/run installs it with apt)")
+    with live_server(service.client.app) as url, sync_api.sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+        page = browser.new_page()
+        seen: list[str] = []
+        page.on("request", lambda req: seen.append(req.url))
+        page.set_default_timeout(30_000)
+        yield url, page, seen
+        browser.close()
+    hosts = {urlparse(u).hostname for u in seen if urlparse(u).scheme in ("http", "https", "ws", "wss")}
+    assert hosts <= {"127.0.0.1"}, f"requests left 127.0.0.1: {sorted(hosts)}"
+    assert seen, "the browser made no request at all"
+
+
+def test_submit_a_preset_from_the_form_and_watch_it_finish(browser_page):
+    url, page, _ = browser_page
+    page.goto(f"{url}/")
+    page.wait_for_function("document.querySelector('#page-info').textContent.includes(' of ')")
+    page.goto(f"{url}/new?kind=intercept")
+    page.wait_for_selector('input[data-path="methods"]')
+    assert "1501.73" in page.inner_text("#preset-description")  # the preset's description is shown
+    page.fill('input[data-path="methods"]', '["impulsive"]')
+    page.fill("#label", "from-the-browser")
+    page.click("#submit")
+    page.wait_for_url(f"{url}/jobs/*")
+    page.evaluate("window.__noReload = 1")
+    page.wait_for_function("document.querySelector('#status').textContent === 'succeeded'", timeout=120_000)
+    assert page.evaluate("window.__noReload") == 1  # progress came live, the page was never reloaded
+    assert page.inner_text("#progress-text") == "100.0%"
+    assert page.eval_on_selector("#bar", "el => el.style.width") == "100%"
+    page.wait_for_selector("#numbers tbody tr")
+    numbers = page.inner_text("#numbers")
+    assert "delta_v_mps" in numbers and "2302.4" in numbers, numbers
+
+
+def test_invalid_parameters_show_the_422_next_to_the_field(browser_page):
+    url, page, _ = browser_page
+    page.goto(f"{url}/new?kind=reentry")
+    page.wait_for_selector('input[data-path="grid.intervals"]')
+    page.fill('input[data-path="grid.intervals"]', "-5")
+    page.click("#submit")
+    slot = '[data-error-for="grid.intervals"]'
+    page.wait_for_function(f"document.querySelector('{slot}').textContent.length > 0")
+    assert "greater than" in page.inner_text(slot)
+    assert page.url.startswith(f"{url}/new")  # nothing was submitted
+
+
+def test_cancel_a_running_job_from_its_page(browser_page, service):
+    url, page, _ = browser_page
+    job = service.submit("midcourse", preset="upper-stage-two-corrections", params=LONG_MIDCOURSE).json()
+    page.goto(f"{url}/jobs/{job['id']}")
+    page.wait_for_function("document.querySelector('#status').textContent === 'running'", timeout=60_000)
+    page.click("#cancel")
+    page.wait_for_function("document.querySelector('#status').textContent === 'cancelled'", timeout=60_000)
+    assert service.client.get(f"/v1/jobs/{job['id']}").json()["status"] == "cancelled"
+
+
+def test_compare_two_jobs_on_one_plot(browser_page, service):
+    url, page, _ = browser_page
+    ids = []
+    for tof in (8080.5, 9000.0):
+        job = service.submit("intercept", preset="long-range-intercept",
+                             params={**IMPULSIVE, "intercept_time_s": tof}, label=f"tf {tof}").json()
+        ids.append(job["id"])
+    for job_id in ids:
+        assert service.wait(job_id)["status"] == "succeeded"
+    page.goto(f"{url}/compare?ids={','.join(ids)}")
+    page.wait_for_function("document.querySelector('#compare-img').naturalWidth > 0")
+    assert page.eval_on_selector("#compare-img", "img => img.naturalWidth") == 800
