@@ -9,7 +9,7 @@ from __future__ import annotations
 from functools import lru_cache
 from pathlib import Path
 
-from pydantic import Field
+from pydantic import Field, model_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 DEFAULT_DATA_DIR = Path("var")
@@ -19,8 +19,9 @@ class Settings(BaseSettings):
     model_config = SettingsConfigDict(env_prefix="TRAJLAB_", env_file=".env", extra="ignore")
 
     database_url: str = Field(
-        default=f"sqlite:///{DEFAULT_DATA_DIR / 'trajlab.db'}",
-        description="SQLAlchemy URL: sqlite:///path (embedded) or postgresql+psycopg://user@host/db",
+        default="",
+        description="SQLAlchemy URL: sqlite:///path (embedded) or postgresql+psycopg://user@host/db; "
+                    "unset: trajlab.db in data_dir",
     )
     broker_url: str = Field(
         default="redis://127.0.0.1:6379/0",
@@ -51,6 +52,13 @@ class Settings(BaseSettings):
     monte_carlo_chunk_samples: int = Field(
         default=50_000, description="Above this many samples a Monte Carlo is split across workers"
     )
+
+    @model_validator(mode="after")
+    def _embedded_database_in_data_dir(self) -> "Settings":
+        # TRAJLAB_DATA_DIR moves everything the embedded mode writes, the SQLite file included.
+        if not self.database_url:
+            self.database_url = f"sqlite:///{Path(self.data_dir) / 'trajlab.db'}"
+        return self
 
     def time_limit_s(self, kind: str) -> float:
         return float(getattr(self, f"time_limit_{kind}_s"))
