@@ -9,6 +9,11 @@ from typing import Any
 
 MAX_GENERIC = 10
 
+# Where each kind takes a warm start from a stored job: the console's "warm start" button and the
+# continuation walk of a study fill it in.  midcourse has none (NSGA-II starts from its seed).
+WARM_START_FIELD = {"reentry": "initial_guess.from_job", "robust_reentry": "initial_guess.from_job",
+                    "intercept": "finite_thrust.from_job"}
+
 
 def _generic(result: dict, prefix: str = "", depth: int = 0, out: dict | None = None) -> dict[str, Any]:
     """Scalars breadth-first: the top level's first, then one and two levels down."""

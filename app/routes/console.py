@@ -22,14 +22,12 @@ from app import jobs
 from app.access import PrincipalDep, visible_job
 from app.deps import DatabaseDep
 from app.kinds import KINDS, PRESETS
+from app.summary import WARM_START_FIELD
 
 WEB = Path(__file__).resolve().parent.parent / "web"
 templates = Jinja2Templates(directory=str(WEB / "templates"))
 router = APIRouter(include_in_schema=False)
 
-# Where each kind takes a warm start from a stored job (the "warm start" button fills it in).
-WARM_START_FIELD = {"reentry": "initial_guess.from_job", "robust_reentry": "initial_guess.from_job",
-                    "intercept": "finite_thrust.from_job"}
 
 
 def _page(request: Request, name: str, **context) -> HTMLResponse:
