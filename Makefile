@@ -2,6 +2,8 @@
 PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
+# make run PORT=8001 (or TRAJLAB_PORT=8001 make run) when 8000 is taken
+PORT   ?= $(or $(TRAJLAB_PORT),8000)
 
 .PHONY: run test install install-test bench clean
 
@@ -19,7 +21,7 @@ install: $(VENV)/.installed
 install-test: $(VENV)/.installed-test
 
 run: install
-	$(VENV)/bin/trajlab serve
+	$(VENV)/bin/trajlab serve --port $(PORT)
 
 test: install-test
 	$(PY) -m pytest
