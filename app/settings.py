@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from functools import lru_cache
 from pathlib import Path
+from typing import Literal
 
 from pydantic import Field, model_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
@@ -52,6 +53,20 @@ class Settings(BaseSettings):
     monte_carlo_chunk_samples: int = Field(
         default=50_000, description="Above this many samples a Monte Carlo is split across workers"
     )
+
+    # Security (README "Security"). Required unless switched off: `trajlab serve` on a
+    # loopback address switches it off (one local user) and says so at start.
+    auth: Literal["required", "off"] = Field(
+        default="required", description="required: every /v1 request needs `Authorization: Bearer KEY`; "
+                                         "off: no keys, every caller sees every job (local use only)")
+    max_body_bytes: int = Field(default=1_048_576, ge=0, description="Request body cap (413 before parsing)")
+    max_queued_per_owner: int = Field(default=10, ge=1, description="Queued jobs one owner may have (429 past it)")
+    max_active_per_owner: int = Field(default=20, ge=1, description="Queued + running jobs of one owner (429)")
+    max_active_cost_per_owner: float = Field(
+        default=100_000.0, gt=0, description="Budget of estimated cost (app.quota) over an owner's queued + "
+                                             "running jobs; one job alone may exceed it")
+    heavy_cost: float = Field(default=5_000.0, gt=0, description="Jobs estimated above this go to the heavy queue")
+    quota_retry_after_s: int = Field(default=30, ge=1, description="Retry-After of a 429")
 
     @model_validator(mode="after")
     def _embedded_database_in_data_dir(self) -> "Settings":

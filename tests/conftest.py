@@ -1,7 +1,14 @@
 """Shared fixtures: an embedded SQLite database for unit tests."""
 from __future__ import annotations
 
+import os
+
 import pytest
+
+# The service defaults to TRAJLAB_AUTH=required (production); the suite runs
+# with auth off unless a test builds its app with auth required
+# (tests/integration/test_security.py). Worker subprocesses inherit this too.
+os.environ.setdefault("TRAJLAB_AUTH", "off")
 
 from app.db import get_database
 from app.migrate import upgrade
