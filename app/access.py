@@ -4,15 +4,22 @@ Every route that reads or changes a job (get, result, cancel, events, plots,
 reports, files) takes a :data:`PrincipalDep` and loads the job with
 :func:`visible_job`, so owner isolation is decided in one place: a job of
 another owner is a 404, exactly like a job that does not exist.
+
+With ``TRAJLAB_AUTH=required`` the caller is the owner of the API key in
+``Authorization: Bearer KEY`` (:mod:`app.auth`); a missing, unknown or revoked
+key is a 401.  With ``off`` every caller is :data:`LOCAL`, who sees every job.
+FastAPI's ``HTTPBearer`` declares the scheme, so ``/docs`` has the Authorize button.
 """
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from typing import Annotated
 
 from fastapi import Depends, HTTPException, Request
+from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
-from app import jobs
+from app import auth, jobs
 from app.db import Database
 from app.models import Job
 
@@ -27,15 +34,38 @@ class Principal:
     def may_see(self, job: Job) -> bool:
         return self.admin or (job.owner is not None and job.owner == self.owner)
 
+    @property
+    def owner_filter(self) -> str | None:
+        """The owner a listing is restricted to; None (everything) for admins and LOCAL."""
+        return None if self.admin else self.owner
+
 
 LOCAL = Principal(owner=None, admin=True)
 
+_bearer = HTTPBearer(auto_error=False, description="An API key from `trajlab keys create` (TRAJLAB_AUTH=required)")
 
-def _principal(request: Request) -> Principal:
-    return LOCAL
+
+def _unauthorized(detail: str, *, error: str | None = None) -> HTTPException:
+    challenge = "Bearer" if error is None else f'Bearer error="{error}"'  # RFC 6750 section 3
+    return HTTPException(status_code=401, detail=detail, headers={"WWW-Authenticate": challenge})
+
+
+def _principal(request: Request,
+               credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)]) -> Principal:
+    if request.app.state.settings.auth == "off":
+        return LOCAL
+    if credentials is None:
+        raise _unauthorized("an API key is required: Authorization: Bearer KEY")
+    key = auth.authenticate(request.app.state.db, credentials.credentials)
+    if key is None:
+        raise _unauthorized("unknown or revoked API key", error="invalid_token")
+    return Principal(owner=key.owner, admin=key.admin)
 
 
 PrincipalDep = Annotated[Principal, Depends(_principal)]
+
+
+_JOB_ID = re.compile(r"[0-9a-f]{32}")  # app.models.new_id: uuid4().hex
 
 
 def not_found(job_id: str) -> HTTPException:
@@ -44,6 +74,8 @@ def not_found(job_id: str) -> HTTPException:
 
 def visible_job(db: Database, job_id: str, principal: Principal) -> Job:
     """The job if this caller may see it; otherwise a 404 (never a 403: existence is not disclosed)."""
+    if not _JOB_ID.fullmatch(job_id):  # not an id we issue (e.g. a NUL, which PostgreSQL refuses): no query
+        raise not_found(job_id[:40])
     job = jobs.get_job(db, job_id)
     if job is None or not principal.may_see(job):
         raise not_found(job_id)

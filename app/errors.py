@@ -1,11 +1,31 @@
-"""422 responses that name the field and the rule, and survive any input (NaN included)."""
+"""Error bodies: 422s that name the field and the rule and survive any input, and a generic 500.
+
+A 422 never echoes more than a few hundred characters of the input (a 10 MB
+label came back as a 10 MB body), and no error body carries an exception's
+text, an address, a path or a trace: a 500 says only "internal error" and a
+request id, and the traceback goes to the log under that id.
+"""
 from __future__ import annotations
 
+import logging
 import math
+import uuid
 
 from fastapi import Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
+
+log = logging.getLogger("trajlab.errors")
+
+MAX_ECHO_CHARS = 200  # of one string echoed back in a 422
+MAX_ECHO_ITEMS = 20  # of one list or dict echoed back
+MAX_ERRORS = 20  # errors listed in one 422
+
+
+def _short(text: str) -> str:
+    # backslashreplace: a lone surrogate would make the JSON response itself unencodable
+    text = text if len(text) <= MAX_ECHO_CHARS else f"{text[:MAX_ECHO_CHARS]}... ({len(text)} characters)"
+    return text.encode("utf-8", "backslashreplace").decode("utf-8")
 
 
 def _json_safe(value, depth: int = 0):
@@ -13,13 +33,15 @@ def _json_safe(value, depth: int = 0):
         return str(value)  # "nan", "inf": the JSON response cannot carry the number itself
     if depth > 4:
         return "..."
+    if isinstance(value, str):
+        return _short(value)
     if isinstance(value, dict):
-        return {str(k): _json_safe(v, depth + 1) for k, v in list(value.items())[:50]}
+        return {_short(str(k)): _json_safe(v, depth + 1) for k, v in list(value.items())[:MAX_ECHO_ITEMS]}
     if isinstance(value, (list, tuple)):
-        return [_json_safe(v, depth + 1) for v in list(value)[:50]]
-    if value is None or isinstance(value, (str, int, float, bool)):
+        return [_json_safe(v, depth + 1) for v in list(value)[:MAX_ECHO_ITEMS]]
+    if value is None or isinstance(value, (int, float, bool)):
         return value
-    return repr(value)
+    return _short(repr(value))
 
 
 def _field(loc) -> str:
@@ -28,11 +50,25 @@ def _field(loc) -> str:
 
 
 async def validation_error_handler(request: Request, exc: RequestValidationError) -> JSONResponse:
+    errors = list(exc.errors())
     detail = []
-    for err in exc.errors():
-        item = {"loc": list(err.get("loc", ())), "msg": err.get("msg", ""), "type": err.get("type", "")}
+    for err in errors[:MAX_ERRORS]:
+        loc = [_json_safe(p) for p in err.get("loc", ())]
+        item = {"loc": loc, "msg": _short(str(err.get("msg", ""))), "type": err.get("type", "")}
         if "input" in err:
             item["input"] = _json_safe(err["input"])
         detail.append(item)
     message = "; ".join(f"{_field(d['loc'])}: {d['msg']}" for d in detail)
+    if len(errors) > MAX_ERRORS:
+        message += f"; and {len(errors) - MAX_ERRORS} more errors"
     return JSONResponse(status_code=422, content={"detail": detail, "message": message})
+
+
+async def internal_error_handler(request: Request, exc: Exception) -> JSONResponse:
+    """Any unhandled exception: logged with its traceback under a request id; the client gets only the id."""
+    request_id = uuid.uuid4().hex
+    log.error("unhandled error on %s %s (request %s)", request.method, request.url.path, request_id,
+              exc_info=exc)
+    return JSONResponse(status_code=500, headers={"X-Request-ID": request_id},
+                        content={"detail": "internal error; the service log has the details under this request id",
+                                 "request_id": request_id})

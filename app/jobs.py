@@ -17,6 +17,7 @@ from datetime import datetime, timedelta, timezone
 
 from sqlalchemy import func, select, update
 
+from app.broker import QUEUE_JOBS
 from app.db import Database
 from app.models import FINAL_STATUSES, Job, JobResult, utcnow
 
@@ -52,27 +53,46 @@ class IdempotencyConflict(Exception):
 
 
 def create_job(db: Database, *, kind: str, params: dict, label: str | None, preset: str | None,
-               idempotency_key: str | None = None, request_hash: str | None = None) -> tuple[Job, bool]:
-    """Insert a queued job (attempt 1). Returns ``(job, created)``; an identical
-    request with a known ``idempotency_key`` returns the existing job."""
+               idempotency_key: str | None = None, request_hash: str | None = None,
+               owner: str | None = None, queue: str = QUEUE_JOBS) -> tuple[Job, bool]:
+    """Insert a queued job (attempt 1) of ``owner`` for ``queue``. Returns ``(job, created)``; an
+    identical request of the same owner with a known ``idempotency_key`` returns the existing job."""
     with db.write() as s:
         if idempotency_key is not None:
             existing = s.scalar(select(Job).where(Job.idempotency_key == idempotency_key))
             if existing is not None:
-                if existing.request_hash != request_hash:
+                # Another owner's key is a conflict, never their job.
+                if existing.request_hash != request_hash or existing.owner != owner:
                     raise IdempotencyConflict(idempotency_key)
                 return existing, False
         job = Job(kind=kind, params=params, label=label, preset=preset, status="queued",
                   progress=0.0, message="queued", attempts=1, cancel_requested=False,
-                  idempotency_key=idempotency_key, request_hash=request_hash, created_at=utcnow())
+                  idempotency_key=idempotency_key, request_hash=request_hash, created_at=utcnow(),
+                  owner=owner, queue=queue)
         s.add(job)
     return job, True
 
 
-def list_jobs(db: Database, *, kind: str | None, status: str | None, limit: int, offset: int) -> tuple[list[Job], int]:
+def find_idempotent(db: Database, idempotency_key: str, *, owner: str | None) -> Job | None:
+    """The job this owner already submitted with ``idempotency_key``, if any."""
+    with db.read() as s:
+        return s.scalar(select(Job).where(Job.idempotency_key == idempotency_key, Job.owner == owner))
+
+
+def active_jobs(db: Database, owner: str | None) -> list[Job]:
+    """The owner's queued and running jobs (what quotas count); bounded by the per-owner limits."""
+    with db.read() as s:
+        return list(s.scalars(select(Job).where(Job.owner == owner, Job.status.in_(("queued", "running")))))
+
+
+def list_jobs(db: Database, *, kind: str | None, status: str | None, limit: int, offset: int,
+              owner: str | None = None) -> tuple[list[Job], int]:
+    """Newest first; ``owner`` restricts to that owner's jobs (None: every job)."""
     with db.read() as s:
         q = select(Job)
         cq = select(func.count()).select_from(Job)
+        if owner is not None:
+            q, cq = q.where(Job.owner == owner), cq.where(Job.owner == owner)
         if kind:
             q, cq = q.where(Job.kind == kind), cq.where(Job.kind == kind)
         if status:

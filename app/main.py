@@ -1,11 +1,12 @@
 """FastAPI application factory."""
 from __future__ import annotations
 
-from fastapi import FastAPI
+from fastapi import Depends, FastAPI
 from fastapi.exceptions import RequestValidationError
 
 from app.db import get_database
-from app.errors import validation_error_handler
+from app.errors import internal_error_handler, validation_error_handler
+from app.limits import reject_unsafe_text
 from app.settings import Settings, get_settings
 
 DESCRIPTION = """
@@ -23,17 +24,22 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     from app.broker import create_publisher
 
     settings = settings or get_settings()
-    app = FastAPI(title="trajlab", version="0.1.0", description=DESCRIPTION)
+    # max_body_size: FastAPI's own cap (413 on Content-Length or streamed bytes, before parsing);
+    # reject_unsafe_text: NUL and lone surrogates are a 422 (app.limits).
+    app = FastAPI(title="trajlab", version="0.1.0", description=DESCRIPTION,
+                  max_body_size=settings.max_body_bytes, dependencies=[Depends(reject_unsafe_text)])
     app.add_exception_handler(RequestValidationError, validation_error_handler)
+    app.add_exception_handler(Exception, internal_error_handler)
     app.state.settings = settings
     app.state.db = get_database(settings.database_url)
     app.state.celery = create_publisher(settings)
-    bad_body = {400: {"description": "The body is not valid JSON (e.g. not UTF-8)"}}
+    bad_body = {400: {"description": "The body is not valid JSON (e.g. not UTF-8)"},
+                413: {"description": "The body is larger than TRAJLAB_MAX_BODY_BYTES (refused before parsing)"}}
     app.include_router(jobs.router, responses=bad_body)
     app.include_router(events.router)
     app.include_router(console.router)
     console.mount_static(app)
     app.include_router(presets.router)
-    app.include_router(lambert.router, responses=bad_body)
+    app.include_router(lambert.router, responses=bad_body, max_body_size=lambert.max_body_bytes(settings))
     app.include_router(health.router)
     return app

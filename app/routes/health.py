@@ -1,5 +1,11 @@
-"""Liveness (/healthz) and readiness (/readyz: database and broker reachable)."""
+"""Liveness (/healthz) and readiness (/readyz: database and broker reachable).
+
+The bodies say only "up" or "down" per component: the reasons (addresses,
+socket paths, driver messages) go to the log, not to whoever asks.
+"""
 from __future__ import annotations
+
+import logging
 
 from fastapi import APIRouter
 from fastapi.responses import JSONResponse
@@ -8,6 +14,7 @@ from sqlalchemy import text
 from app.deps import CeleryDep, DatabaseDep
 
 router = APIRouter(tags=["health"])
+log = logging.getLogger("trajlab.health")
 
 
 @router.get("/healthz")
@@ -21,14 +28,16 @@ def readyz(db: DatabaseDep, celery: CeleryDep):
     try:
         with db.read() as s:
             s.execute(text("SELECT 1"))
-        checks["database"] = "ok"
-    except Exception as exc:
-        checks["database"] = f"unreachable: {type(exc).__name__}: {exc}"
+        checks["database"] = "up"
+    except Exception:
+        log.warning("readiness: database unreachable", exc_info=True)
+        checks["database"] = "down"
     try:
         with celery.connection_for_write() as conn:
             conn.ensure_connection(max_retries=1, timeout=2)
-        checks["broker"] = "ok"
-    except Exception as exc:
-        checks["broker"] = f"unreachable: {type(exc).__name__}: {exc}"
-    ok = all(v == "ok" for v in checks.values())
+        checks["broker"] = "up"
+    except Exception:
+        log.warning("readiness: broker unreachable", exc_info=True)
+        checks["broker"] = "down"
+    ok = all(v == "up" for v in checks.values())
     return JSONResponse(status_code=200 if ok else 503, content={"status": "ready" if ok else "not ready", **checks})

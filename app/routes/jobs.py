@@ -3,12 +3,13 @@ from __future__ import annotations
 
 import hashlib
 import json
+import logging
 from typing import Annotated
 
 from fastapi import APIRouter, Body, Header, HTTPException, Query, Response
 from fastapi.responses import JSONResponse
 
-from app import jobs
+from app import jobs, quota
 from app.access import PrincipalDep, not_found, visible_job
 from app.deps import CeleryDep, DatabaseDep, SettingsDep
 from app.kinds import KINDS, PRESETS
@@ -17,12 +18,16 @@ from app.schemas import JobList, JobOut, JobStatus, JobSubmission
 from app.broker import publish_job
 
 router = APIRouter(prefix="/v1/jobs", tags=["jobs"])
+log = logging.getLogger("trajlab.api")
 
 
 @router.post("", status_code=202, response_model=JobOut,
              responses={202: {"description": "Accepted: the job is queued; `Location` points at it"},
                         422: {"description": "Invalid parameters (the message names the field and the rule), "
                                               "or an Idempotency-Key reused for a different request"},
+                        401: {"description": "No, unknown or revoked API key (TRAJLAB_AUTH=required)"},
+                        429: {"description": "Over the owner's quota of queued/running jobs or estimated cost; "
+                                              "`Retry-After` says when to try again"},
                         503: {"description": "The broker could not be reached; the job is stored as failed"}})
 def submit_job(
     submission: Annotated[JobSubmission, Body(openapi_examples={
@@ -30,7 +35,7 @@ def submit_job(
         "override": {"summary": "A preset with overrides",
                      "value": {"kind": "reentry", "preset": "betts-max-crossrange", "params": {"grid": {"intervals": 50}}}},
     })],
-    response: Response, db: DatabaseDep, settings: SettingsDep, celery: CeleryDep,
+    response: Response, db: DatabaseDep, settings: SettingsDep, celery: CeleryDep, principal: PrincipalDep,
     idempotency_key: Annotated[str | None, Header(max_length=200, description="Repeat a submission safely: the same key and body return the same job")] = None,
 ):
     spec = KINDS[submission.kind]
@@ -41,26 +46,38 @@ def submit_job(
     if idempotency_key is not None:
         body = submission.model_dump(mode="json", exclude_unset=True)
         request_hash = hashlib.sha256(json.dumps(body, sort_keys=True).encode()).hexdigest()
+    owner = principal.owner
+    # Quotas count new work only: repeating an accepted submission returns its job even at the limit.
+    cost = quota.estimate_cost(submission.kind, params)
+    if idempotency_key is None or jobs.find_idempotent(db, idempotency_key, owner=owner) is None:
+        try:
+            quota.check_quota(db, settings, owner=owner, cost=cost)
+        except quota.QuotaExceeded as exc:
+            raise HTTPException(status_code=429, detail=exc.message,
+                                headers={"Retry-After": str(exc.retry_after_s)})
     try:
         job, created = jobs.create_job(db, kind=submission.kind, params=params, label=submission.label,
                                        preset=submission.preset, idempotency_key=idempotency_key,
-                                       request_hash=request_hash)
+                                       request_hash=request_hash, owner=owner,
+                                       queue=quota.queue_for(submission.kind, cost, settings))
     except jobs.IdempotencyConflict:
         # draft-ietf-httpapi-idempotency-key-header: reuse with another payload is a 422.
         raise HTTPException(status_code=422, detail="Idempotency-Key was already used for a different request body")
     if created:
         try:
-            publish_job(celery, settings, job_id=job.id, attempt=job.attempts, kind=job.kind)
+            publish_job(celery, settings, job_id=job.id, attempt=job.attempts, kind=job.kind, queue=job.queue)
         except Exception as exc:  # the row stays, marked failed with the reason
+            log.warning("job %s: publishing failed", job.id, exc_info=True)
             jobs.mark_publish_failed(db, job.id, f"{type(exc).__name__}: {exc}")
-            raise HTTPException(status_code=503, detail=f"job {job.id} stored but the broker is unreachable: {exc}")
+            # the broker's address and the driver's message stay in the log
+            raise HTTPException(status_code=503, detail=f"job {job.id} stored but the broker is unreachable")
     response.headers["Location"] = f"/v1/jobs/{job.id}"
     return jobs.job_to_dict(job)
 
 
 @router.get("", response_model=JobList)
 def list_jobs(
-    db: DatabaseDep,
+    db: DatabaseDep, principal: PrincipalDep,
     kind: Annotated[str | None, Query(description="Only this kind")] = None,
     status: Annotated[JobStatus | None, Query(description="Only this status")] = None,
     limit: Annotated[int, Query(ge=1, le=500)] = 50,
@@ -69,7 +86,8 @@ def list_jobs(
 ):
     if kind is not None and kind not in KINDS:
         raise HTTPException(status_code=422, detail=f"kind must be one of {sorted(KINDS)}")
-    items, total = jobs.list_jobs(db, kind=kind, status=status, limit=limit, offset=offset)
+    items, total = jobs.list_jobs(db, kind=kind, status=status, limit=limit, offset=offset,
+                                  owner=principal.owner_filter)
     return {"items": [jobs.job_to_dict(j) for j in items], "total": total}
 
 

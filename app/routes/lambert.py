@@ -15,6 +15,7 @@ from fastapi.routing import APIRoute
 from pydantic import Field, field_validator
 
 from app.kinds.base import StrictModel
+from app.limits import count_lambert_problems
 from app.settings import get_settings
 from solvers.astro.lambert import lambert
 
@@ -39,6 +40,11 @@ class _FiniteErrorsRoute(APIRoute):
         handler = super().get_route_handler()
 
         async def route_handler(request: Request):
+            # The cap is checked on the raw body before the array is parsed (app.limits); the
+            # body is kept on the request, so FastAPI parses the same bytes without reading again.
+            cap = _settings(request).lambert_max_problems
+            if count_lambert_problems(await request.body()) > cap:
+                raise RequestValidationError([_too_many(cap, "more than")])
             try:
                 return await handler(request)
             except RequestValidationError as exc:
@@ -48,6 +54,23 @@ class _FiniteErrorsRoute(APIRoute):
 
 
 router = APIRouter(prefix="/v1", tags=["lambert"], route_class=_FiniteErrorsRoute)
+
+# Body cap of this route: room for the problem cap at up to this many bytes per problem (a problem
+# with full-precision floats and every optional field is about 230 bytes).
+BYTES_PER_PROBLEM = 256
+
+
+def max_body_bytes(settings) -> int:
+    return max(settings.max_body_bytes, settings.lambert_max_problems * BYTES_PER_PROBLEM)
+
+
+def _settings(request: Request):
+    return getattr(request.app.state, "settings", None) or get_settings()
+
+
+def _too_many(cap: int, got) -> dict:
+    return {"loc": ("body", "problems"), "type": "too_long", "input": None,
+            "msg": f"at most {cap} problems per request (TRAJLAB_LAMBERT_MAX_PROBLEMS), got {got}"}
 
 MU_EARTH_M3_S2 = 398600.4418e9
 
@@ -103,14 +126,9 @@ def solve_lambert(request: Request, body: Annotated[LambertRequest, Body(openapi
         "problems": [{"r1_m": [5000e3, 10000e3, 2100e3], "r2_m": [-14600e3, 2500e3, 7000e3], "tof_s": 3600}]}},
 })]) -> LambertResponse:
     """Solve a batch of Lambert problems (Izzo's algorithm, vectorized)."""
-    settings = getattr(request.app.state, "settings", None) or get_settings()
-    cap = settings.lambert_max_problems
-    if len(body.problems) > cap:
-        raise RequestValidationError([{
-            "loc": ("body", "problems"), "type": "too_long",
-            "msg": f"at most {cap} problems per request (TRAJLAB_LAMBERT_MAX_PROBLEMS), got {len(body.problems)}",
-            "input": None,
-        }])
+    cap = _settings(request).lambert_max_problems
+    if len(body.problems) > cap:  # the exact count (the raw-body count above is an early bound)
+        raise RequestValidationError([_too_many(cap, len(body.problems))])
     n = len(body.problems)
     r1 = np.array([p.r1_m for p in body.problems], dtype=float)
     r2 = np.array([p.r2_m for p in body.problems], dtype=float)

@@ -143,7 +143,7 @@ def test_production_process_commands(service, pg_url, redis_url):
             except httpx.HTTPError:
                 assert time.monotonic() < deadline, "trajlab api did not come up"
                 time.sleep(0.3)
-        assert r.status_code == 200 and r.json() == {"status": "ready", "database": "ok", "broker": "ok"}
+        assert r.status_code == 200 and r.json() == {"status": "ready", "database": "up", "broker": "up"}
         assert httpx.get(f"http://127.0.0.1:{port}/docs", timeout=5).status_code == 200
     finally:
         api.terminate()
