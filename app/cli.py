@@ -97,6 +97,10 @@ def cmd_serve(args: argparse.Namespace) -> int:
     # SIGTERM (like Ctrl-C's SIGINT) an exception so the finally below still stops
     # the worker and the broker.
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(0))
+    if "TRAJLAB_AUTH" not in os.environ and args.host in ("127.0.0.1", "localhost", "::1"):
+        os.environ["TRAJLAB_AUTH"] = "off"  # one local user; any other address keeps keys required
+    log.warning("TRAJLAB_AUTH=%s%s", os.environ.get("TRAJLAB_AUTH", "required"),
+                ": no API keys, every caller sees every job" if os.environ.get("TRAJLAB_AUTH") == "off" else "")
     settings = get_settings()
     data_dir = Path(settings.data_dir)
     data_dir.mkdir(parents=True, exist_ok=True)
@@ -182,6 +186,9 @@ def main(argv: list[str] | None = None) -> int:
     from app import cli_client
 
     cli_client.add_commands(sub)
+    from app import cli_keys
+
+    cli_keys.add_commands(sub)
     args = parser.parse_args(argv)
     if getattr(args, "run_client", False):
         logging.getLogger("httpx").setLevel(logging.WARNING)  # one line per request is noise in a terminal
