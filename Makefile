@@ -27,6 +27,8 @@ test: install-test
 	$(PY) -m pytest
 
 bench: install
+	command -v wrk >/dev/null || (apt-get update -q && apt-get install -y -q wrk)
+	$(PY) -m benchmarks.api_load
 	$(PY) -m benchmarks.lambert
 	$(PY) -m benchmarks.reentry
 	$(PY) -m benchmarks.midcourse

