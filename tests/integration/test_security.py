@@ -1,0 +1,201 @@
+"""Issue 11 over HTTP against the real stack: PostgreSQL, Redis and real Celery workers.
+
+The app is built here with ``TRAJLAB_AUTH=required`` (the shared ``service``
+fixture runs with auth off).  It uses the run's PostgreSQL database but a Redis
+database of its own, consumed by two workers started here, one per queue, as
+the README's two-slot heavy deployment: ``-Q trajlab.heavy --concurrency=2``
+and ``-Q trajlab.jobs --concurrency=1``.  Keys are made with the real CLI.
+"""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+import uuid
+
+import pytest
+from fastapi.testclient import TestClient
+
+from app import jobs
+from app.broker import QUEUE_HEAVY, QUEUE_JOBS
+from app.main import create_app
+from app.migrate import upgrade
+from app.settings import Settings
+from tests.integration.conftest import REDIS_URL, ROOT, claim_redis_db
+
+pytestmark = pytest.mark.integration
+
+QUICK = {"kind": "intercept", "preset": "long-range-intercept",
+         "params": {"methods": ["impulsive"], "scan": {"step_s": 5.0}}}
+# 100 x 5000 NSGA-II: cost 100,000 (heavy queue), minutes of work; cancelled at the end.
+HEAVY = {"kind": "midcourse", "preset": "upper-stage-two-corrections", "params": {"generations": 5000, "seed": 5}}
+
+
+class Secure:
+    def __init__(self, client: TestClient, env: dict, keys: dict[str, str]):
+        self.client, self.env, self.keys = client, env, keys
+
+    def h(self, who: str) -> dict:
+        return {"Authorization": f"Bearer {self.keys[who]}"}
+
+    def submit(self, who: str, body: dict):
+        return self.client.post("/v1/jobs", json=body, headers=self.h(who))
+
+    def wait(self, who: str, job_id: str, until: tuple[str, ...], timeout: float) -> dict:
+        deadline = time.monotonic() + timeout
+        while True:
+            job = self.client.get(f"/v1/jobs/{job_id}", headers=self.h(who)).json()
+            if job["status"] in until:
+                return job
+            assert time.monotonic() < deadline, f"job {job_id} still {job['status']} after {timeout} s"
+            time.sleep(0.2)
+
+
+def _cli(env: dict, *args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "app.cli", *args], cwd=ROOT, env=env,
+                          capture_output=True, text=True, timeout=60)
+
+
+def _worker(env: dict, log_dir, *, queue: str, concurrency: int) -> subprocess.Popen:
+    name = f"sec-{queue.split('.')[-1]}-{uuid.uuid4().hex[:6]}@%h"
+    log = open(log_dir / f"{name.split('@')[0]}.log", "wb")
+    cmd = [sys.executable, "-m", "celery", "-A", "worker.celery_app:celery_app", "worker", "--loglevel=INFO",
+           f"--concurrency={concurrency}", "-n", name, "-Q", queue]
+    return subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+
+
+def _stop(proc: subprocess.Popen) -> None:
+    if proc.poll() is None:
+        os.killpg(proc.pid, signal.SIGTERM)
+        try:
+            proc.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait(timeout=30)
+
+
+@pytest.fixture(scope="module")
+def secure(pg_url, tmp_path_factory):
+    upgrade(pg_url)
+    r, broker_url = claim_redis_db(REDIS_URL)  # our own queues: no other test's worker takes our jobs
+    log_dir = tmp_path_factory.mktemp("security")
+    overrides = {"TRAJLAB_DATABASE_URL": pg_url, "TRAJLAB_BROKER_URL": broker_url, "TRAJLAB_AUTH": "required",
+                 "TRAJLAB_HEARTBEAT_INTERVAL_S": "0.5", "TRAJLAB_MAX_ACTIVE_COST_PER_OWNER": "150000"}
+    env = {**os.environ, **overrides, "PYTHONPATH": str(ROOT)}
+    suffix = uuid.uuid4().hex[:6]  # key names are unique per database; the database is shared by the run
+    keys = {}
+    for who, extra in (("alice", ()), ("bob", ()), ("ops", ("--admin",)), ("heavy1", ()), ("heavy2", ())):
+        out = _cli(env, "keys", "create", "--name", f"{who}-{suffix}", *extra)
+        assert out.returncode == 0, out.stderr
+        keys[who] = out.stdout.strip()
+    settings = Settings(**{k.removeprefix("TRAJLAB_").lower(): v for k, v in overrides.items()})
+    workers = [_worker(env, log_dir, queue=QUEUE_HEAVY, concurrency=2),
+               _worker(env, log_dir, queue=QUEUE_JOBS, concurrency=1)]
+    client = TestClient(create_app(settings))
+    try:
+        yield Secure(client, env, keys | {"suffix": suffix})
+    finally:
+        for w in workers:
+            _stop(w)
+        client.close()
+        r.flushdb()  # also releases the run lock of this Redis database
+
+
+def test_no_key_and_a_revoked_key_are_401(secure):
+    r = secure.client.get("/v1/jobs")
+    assert r.status_code == 401 and r.headers["WWW-Authenticate"] == "Bearer"
+    created = _cli(secure.env, "keys", "create", "--name", f"temp-{secure.keys['suffix']}")
+    key = created.stdout.strip()
+    assert secure.client.get("/v1/jobs", headers={"Authorization": f"Bearer {key}"}).status_code == 200
+    assert _cli(secure.env, "keys", "revoke", f"temp-{secure.keys['suffix']}").returncode == 0
+    r = secure.client.get("/v1/jobs", headers={"Authorization": f"Bearer {key}"})
+    assert r.status_code == 401
+    listing = _cli(secure.env, "keys", "list").stdout
+    assert f"temp-{secure.keys['suffix']}" in listing and key not in listing
+
+
+def _job_routes(app) -> list[tuple[str, str]]:
+    """Every documented route that addresses one job (get, result, cancel, events, and any added
+    later, e.g. plots and reports), plus the console's per-job numbers."""
+    found = [("GET", "/console/jobs/{job_id}/numbers")]
+    for path, ops in app.openapi()["paths"].items():
+        if "{job_id}" in path:
+            found += [(method.upper(), path) for method in ops if method in ("get", "post", "put", "delete")]
+    return found
+
+
+def test_owners_are_isolated_over_http(secure):
+    job = secure.submit("alice", QUICK).json()
+    done = secure.wait("alice", job["id"], ("succeeded", "failed"), timeout=120)
+    assert done["status"] == "succeeded", done
+    routes = _job_routes(secure.client.app)
+    assert {("GET", "/v1/jobs/{job_id}"), ("GET", "/v1/jobs/{job_id}/result"),
+            ("POST", "/v1/jobs/{job_id}/cancel"), ("GET", "/v1/jobs/{job_id}/events")} <= set(routes)
+    for method, path in routes:
+        url = path.replace("{job_id}", job["id"])
+        url = url.replace("{", "").replace("}", "")  # any further path parameter: a placeholder
+        mine = secure.client.request(method, url, headers=secure.h("alice"))
+        theirs = secure.client.request(method, url, headers=secure.h("bob"))
+        assert theirs.status_code == 404, (method, path, theirs.status_code)
+        assert mine.status_code != 404 or path.count("{") > 1, (method, path)
+    # Bob's cancel changed nothing; listings hold only the caller's jobs; the admin sees them all.
+    assert secure.client.get(f"/v1/jobs/{job['id']}", headers=secure.h("alice")).json()["status"] == "succeeded"
+    bob_job = secure.submit("bob", QUICK).json()
+    alice_ids = {j["id"] for j in secure.client.get("/v1/jobs?limit=500", headers=secure.h("alice")).json()["items"]}
+    bob_ids = {j["id"] for j in secure.client.get("/v1/jobs?limit=500", headers=secure.h("bob")).json()["items"]}
+    all_ids = {j["id"] for j in secure.client.get("/v1/jobs?limit=500", headers=secure.h("ops")).json()["items"]}
+    assert job["id"] in alice_ids and bob_job["id"] not in alice_ids
+    assert bob_job["id"] in bob_ids and job["id"] not in bob_ids
+    assert {job["id"], bob_job["id"]} <= all_ids
+    assert secure.client.get(f"/v1/jobs/{job['id']}/result", headers=secure.h("ops")).status_code == 200
+    secure.wait("bob", bob_job["id"], ("succeeded", "failed"), timeout=120)
+
+
+def test_inputs_that_were_500s_are_422_and_store_nothing(secure):
+    before = secure.client.get("/v1/jobs", headers=secure.h("bob")).json()["total"]
+    for label in ("a\u0000b", "\ud800"):
+        body = json.dumps({"kind": "intercept", "label": label})  # ensure_ascii: sent as \u escapes
+        r = secure.client.post("/v1/jobs", content=body,
+                               headers={**secure.h("bob"), "Content-Type": "application/json"})
+        assert r.status_code == 422, (label.encode("unicode_escape"), r.status_code, r.text[:200])
+    r = secure.client.post("/v1/jobs", json={"kind": "intercept", "label": "z" * 500_000}, headers=secure.h("bob"))
+    assert r.status_code == 422 and len(r.content) < 2000
+    r = secure.client.post("/v1/jobs", json={"kind": "intercept", "label": "z" * 2_000_000}, headers=secure.h("bob"))
+    assert r.status_code == 413
+    assert secure.client.get("/v1/jobs", headers=secure.h("bob")).json()["total"] == before
+
+
+def test_readyz_says_up_without_internals(secure):
+    r = secure.client.get("/readyz")
+    assert r.status_code == 200 and r.json() == {"status": "ready", "database": "up", "broker": "up"}
+
+
+@pytest.mark.slow
+def test_quick_job_finishes_while_two_heavy_jobs_hold_the_heavy_workers(secure):
+    heavy = [secure.submit(who, HEAVY).json() for who in ("heavy1", "heavy2")]
+    try:
+        db = secure.client.app.state.db
+        for who, job in zip(("heavy1", "heavy2"), heavy):
+            assert job["status"] == "queued" and jobs.get_job(db, job["id"]).queue == QUEUE_HEAVY, job
+            secure.wait(who, job["id"], ("running",), timeout=90)
+        # The cost budget (150,000 here) refuses a second 100,000 job of the same owner.
+        r = secure.submit("heavy1", HEAVY)
+        assert r.status_code == 429 and int(r.headers["Retry-After"]) > 0 and "budget" in r.json()["detail"]
+        t0 = time.monotonic()
+        quick = secure.submit("alice", QUICK).json()
+        assert jobs.get_job(db, quick["id"]).queue == QUEUE_JOBS
+        done = secure.wait("alice", quick["id"], ("succeeded", "failed"), timeout=60)
+        elapsed = time.monotonic() - t0
+        assert done["status"] == "succeeded", done
+        print(f"quick job behind two running heavy jobs: {elapsed:.1f} s")
+        assert elapsed < 30.0
+        for who, job in zip(("heavy1", "heavy2"), heavy):  # both still held their slot meanwhile
+            assert secure.client.get(f"/v1/jobs/{job['id']}", headers=secure.h(who)).json()["status"] == "running"
+    finally:
+        for who, job in zip(("heavy1", "heavy2"), heavy):
+            secure.client.post(f"/v1/jobs/{job['id']}/cancel", headers=secure.h(who))
+        for who, job in zip(("heavy1", "heavy2"), heavy):
+            assert secure.wait(who, job["id"], ("cancelled", "failed", "succeeded"), timeout=90)["status"] == "cancelled"
