@@ -1,12 +1,15 @@
 # One image for every trajlab process (api, worker, beat, migrate); the command picks the role.
 FROM python:3.11-slim
 WORKDIR /srv/trajlab
-ENV PYTHONDONTWRITEBYTECODE=1 PYTHONUNBUFFERED=1
+ENV PYTHONDONTWRITEBYTECODE=1 PYTHONUNBUFFERED=1 MPLCONFIGDIR=/tmp/matplotlib
 COPY pyproject.toml README.md alembic.ini ./
 COPY app ./app
 COPY worker ./worker
 COPY solvers ./solvers
 COPY migrations ./migrations
 RUN pip install --no-cache-dir .
+# Run as an unprivileged user that owns nothing it could overwrite (the code stays root's, read-only).
+RUN useradd --system --uid 10001 --no-create-home --shell /usr/sbin/nologin trajlab
+USER 10001:10001
 EXPOSE 8000
 CMD ["trajlab", "api", "--host", "0.0.0.0", "--port", "8000"]
