@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from typing import Annotated
 
 from fastapi import Depends, HTTPException, Request
+from fastapi.concurrency import run_in_threadpool
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
 from app import auth, jobs
@@ -42,7 +43,7 @@ class Principal:
 
 LOCAL = Principal(owner=None, admin=True)
 
-_bearer = HTTPBearer(auto_error=False, description="An API key from `trajlab keys create` (TRAJLAB_AUTH=required)")
+bearer_scheme = HTTPBearer(auto_error=False, description="An API key from `trajlab keys create` (TRAJLAB_AUTH=required)")
 
 
 def _unauthorized(detail: str, *, error: str | None = None) -> HTTPException:
@@ -51,7 +52,7 @@ def _unauthorized(detail: str, *, error: str | None = None) -> HTTPException:
 
 
 def _principal(request: Request,
-               credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)]) -> Principal:
+               credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(bearer_scheme)]) -> Principal:
     if request.app.state.settings.auth == "off":
         return LOCAL
     if credentials is None:
@@ -63,6 +64,12 @@ def _principal(request: Request,
 
 
 PrincipalDep = Annotated[Principal, Depends(_principal)]
+
+
+async def principal_before_body(request: Request) -> Principal:
+    """The same check for a route that wants to refuse a caller before reading a large body
+    (FastAPI reads and parses the body before it runs dependencies)."""
+    return await run_in_threadpool(_principal, request, await bearer_scheme(request))
 
 
 _JOB_ID = re.compile(r"[0-9a-f]{32}")  # app.models.new_id: uuid4().hex

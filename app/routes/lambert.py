@@ -9,11 +9,12 @@ import math
 from typing import Annotated, Callable
 
 import numpy as np
-from fastapi import APIRouter, Body, Request
+from fastapi import APIRouter, Body, Depends, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.routing import APIRoute
 from pydantic import Field, field_validator
 
+from app.access import bearer_scheme, principal_before_body
 from app.kinds.base import StrictModel
 from app.limits import count_lambert_problems
 from app.settings import get_settings
@@ -40,8 +41,10 @@ class _FiniteErrorsRoute(APIRoute):
         handler = super().get_route_handler()
 
         async def route_handler(request: Request):
-            # The cap is checked on the raw body before the array is parsed (app.limits); the
-            # body is kept on the request, so FastAPI parses the same bytes without reading again.
+            # The key, then the cap, are checked before the array is parsed (up to 25 MB at the
+            # default cap): the cap on the raw body (app.limits), which is kept on the request,
+            # so FastAPI parses the same bytes without reading again.
+            await principal_before_body(request)
             cap = _settings(request).lambert_max_problems
             if count_lambert_problems(await request.body()) > cap:
                 raise RequestValidationError([_too_many(cap, "more than")])
@@ -118,7 +121,10 @@ class LambertResponse(StrictModel):
 
 
 @router.post("/lambert", response_model=LambertResponse,
-             responses={422: {"description": "A bad vector (length != 3, NaN, zero), tof_s <= 0, "
+             # the key is checked before the body (route class above); this declares the scheme in /docs
+             dependencies=[Depends(bearer_scheme)],
+             responses={401: {"description": "No, unknown or revoked API key (TRAJLAB_AUTH=required)"},
+                        422: {"description": "A bad vector (length != 3, NaN, zero), tof_s <= 0, "
                                              "or more problems than the configured cap"}})
 def solve_lambert(request: Request, body: Annotated[LambertRequest, Body(openapi_examples={
     "curtis-5.2": {"summary": "Curtis example 5.2 (in m)", "value": {

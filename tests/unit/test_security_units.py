@@ -125,10 +125,13 @@ def test_lambert_cap_is_checked_before_the_body_is_parsed(stack):
     # 11 problems and then garbage: a parsed body would be a JSON error; the raw count answers first.
     problem = '{"r1_m": [7e6, 0, 0], "r2_m": [0, 7e6, 0], "tof_s": 1000}'
     body = '{"problems": [' + ", ".join([problem] * 11) + ", {not json"
-    r = client.post("/v1/lambert", content=body, headers={"Content-Type": "application/json"})
+    r = client.post("/v1/lambert", content=body, headers={**bearer(keys["alice"]), "Content-Type": "application/json"})
     assert r.status_code == 422 and r.json()["detail"][0]["type"] == "too_long"
     assert count_lambert_problems(body.encode()) == 11
-    ok = client.post("/v1/lambert", json={"problems": [json.loads(problem)] * 10})
+    ok = client.post("/v1/lambert", json={"problems": [json.loads(problem)] * 10}, headers=bearer(keys["alice"]))
+    # without a key: 401 before the body is read, even when it is over the cap
+    r = client.post("/v1/lambert", content=body, headers={"Content-Type": "application/json"})
+    assert r.status_code == 401
     assert ok.status_code == 200 and len(ok.json()["solutions"]) == 10
 
 
