@@ -26,3 +26,9 @@ class RecordingContext:
         if job_id not in self.stored:
             raise LookupError(f"job {job_id} not found or not succeeded")
         return self.stored[job_id]
+
+    def run_monte_carlo(self, spec: dict, samples: int, seed: int, chunk_size: int | None = None) -> dict:
+        """In this process, as a worker does below its fan-out threshold."""
+        from solvers.uncertainty.montecarlo import run_monte_carlo
+
+        return run_monte_carlo(spec, samples, seed, chunk_size)

@@ -41,6 +41,15 @@ class JobContext(Protocol):
         exist or has not succeeded.
         """
 
+    def run_monte_carlo(self, spec: dict, samples: int, seed: int, chunk_size: int | None = None) -> dict:
+        """The summary of :func:`solvers.uncertainty.montecarlo.run_monte_carlo` for ``spec``.
+
+        The service decides where it runs: in this process, or split into chunks
+        across the workers (the heavy queue) when ``samples`` is large.  The answer
+        is the same either way for the same seed and chunk size.  Raises
+        :class:`JobCancelled` when the job is cancelled while the chunks run.
+        """
+
 
 class JobFailure(Exception):
     """Raised by ``run`` for an expected, user-facing failure (bad warm-start id,
