@@ -35,11 +35,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.celery = create_publisher(settings)
     bad_body = {400: {"description": "The body is not valid JSON (e.g. not UTF-8)"},
                 413: {"description": "The body is larger than TRAJLAB_MAX_BODY_BYTES (refused before parsing)"}}
-    app.include_router(jobs.router, responses=bad_body)
-    app.include_router(events.router)
+    needs_key = {401: {"description": "No, unknown or revoked API key (TRAJLAB_AUTH=required)"}}
+    app.include_router(jobs.router, responses=bad_body | needs_key)
+    app.include_router(events.router, responses=needs_key)
     app.include_router(console.router)
     console.mount_static(app)
     app.include_router(presets.router)
-    app.include_router(lambert.router, responses=bad_body, max_body_size=lambert.max_body_bytes(settings))
+    app.include_router(lambert.router, responses=bad_body | needs_key, max_body_size=lambert.max_body_bytes(settings))
     app.include_router(health.router)
     return app

@@ -25,7 +25,6 @@ log = logging.getLogger("trajlab.api")
              responses={202: {"description": "Accepted: the job is queued; `Location` points at it"},
                         422: {"description": "Invalid parameters (the message names the field and the rule), "
                                               "or an Idempotency-Key reused for a different request"},
-                        401: {"description": "No, unknown or revoked API key (TRAJLAB_AUTH=required)"},
                         429: {"description": "Over the owner's quota of queued/running jobs or estimated cost; "
                                               "`Retry-After` says when to try again"},
                         503: {"description": "The broker could not be reached; the job is stored as failed"}})

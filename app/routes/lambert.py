@@ -123,8 +123,7 @@ class LambertResponse(StrictModel):
 @router.post("/lambert", response_model=LambertResponse,
              # the key is checked before the body (route class above); this declares the scheme in /docs
              dependencies=[Depends(bearer_scheme)],
-             responses={401: {"description": "No, unknown or revoked API key (TRAJLAB_AUTH=required)"},
-                        422: {"description": "A bad vector (length != 3, NaN, zero), tof_s <= 0, "
+             responses={422: {"description": "A bad vector (length != 3, NaN, zero), tof_s <= 0, "
                                              "or more problems than the configured cap"}})
 def solve_lambert(request: Request, body: Annotated[LambertRequest, Body(openapi_examples={
     "curtis-5.2": {"summary": "Curtis example 5.2 (in m)", "value": {
