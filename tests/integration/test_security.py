@@ -139,7 +139,9 @@ def test_owners_are_isolated_over_http(secure):
         url = url.replace("{", "").replace("}", "")  # any further path parameter: a placeholder
         mine = secure.client.request(method, url, headers=secure.h("alice"))
         theirs = secure.client.request(method, url, headers=secure.h("bob"))
-        assert theirs.status_code == 404, (method, path, theirs.status_code)
+        # a further path parameter may be refused (422) before the job is looked up: that discloses nothing
+        refused = (404, 422) if path.count("{") > 1 else (404,)
+        assert theirs.status_code in refused, (method, path, theirs.status_code)
         assert mine.status_code != 404 or path.count("{") > 1, (method, path)
     # Bob's cancel changed nothing; listings hold only the caller's jobs; the admin sees them all.
     assert secure.client.get(f"/v1/jobs/{job['id']}", headers=secure.h("alice")).json()["status"] == "succeeded"
