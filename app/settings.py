@@ -6,14 +6,19 @@ sets ``TRAJLAB_DATABASE_URL`` and ``TRAJLAB_BROKER_URL`` to PostgreSQL and Redis
 """
 from __future__ import annotations
 
+import math
+import os
+import re
 from functools import lru_cache
 from pathlib import Path
 from typing import Literal
 
 from pydantic import Field, model_validator
+from dotenv import dotenv_values
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 DEFAULT_DATA_DIR = Path("var")
+_TIME_LIMIT_VAR = re.compile(r"TRAJLAB_TIME_LIMIT_([A-Z0-9_]+)_S")
 
 
 class Settings(BaseSettings):
@@ -33,10 +38,10 @@ class Settings(BaseSettings):
 
     # Per-kind Celery time limits (s). The soft limit raises inside the task so the
     # job fails with code time_limit and a message; the hard limit kills the child.
-    time_limit_reentry_s: float = 600.0
-    time_limit_robust_reentry_s: float = 1800.0
-    time_limit_midcourse_s: float = 900.0
-    time_limit_intercept_s: float = 600.0
+    # Each kind declares its own (KindSpec.time_limit_s); TRAJLAB_TIME_LIMIT_<KIND>_S
+    # overrides it, collected into time_limits_s below.
+    time_limits_s: dict[str, float] = Field(
+        default_factory=dict, description="Soft time limit overrides by kind; set as TRAJLAB_TIME_LIMIT_<KIND>_S")
     hard_time_limit_margin_s: float = 60.0
 
     # Worker liveness: a running job writes heartbeat_at every heartbeat_interval_s;
@@ -75,13 +80,34 @@ class Settings(BaseSettings):
             self.database_url = f"sqlite:///{Path(self.data_dir) / 'trajlab.db'}"
         return self
 
+    @model_validator(mode="after")
+    def _time_limit_overrides(self) -> "Settings":
+        # Per-kind variables are not fields (a kind must not need a line here), so they
+        # are read by pattern: the environment wins over the .env file, as for fields.
+        found = {**dotenv_values(".env"), **os.environ} if Path(".env").is_file() else dict(os.environ)
+        for name, value in found.items():
+            m = _TIME_LIMIT_VAR.fullmatch(name.upper())
+            if m and value is not None:
+                kind = m.group(1).lower()
+                limit = float(value)
+                if not (limit > 0 and math.isfinite(limit)):
+                    raise ValueError(f"{name} must be a positive number of seconds")
+                self.time_limits_s.setdefault(kind, limit)
+        return self
+
     def time_limit_s(self, kind: str) -> float:
-        return float(getattr(self, f"time_limit_{kind}_s"))
+        """The soft time limit of ``kind``: its override, else its ``KindSpec.time_limit_s``."""
+        if kind in self.time_limits_s:
+            return float(self.time_limits_s[kind])
+        from app.kinds import KINDS
+
+        return float(KINDS[kind].time_limit_s)
 
     @property
     def longest_hard_time_limit_s(self) -> float:
-        limits = [self.time_limit_s(k) for k in ("reentry", "robust_reentry", "midcourse", "intercept")]
-        return max(limits) + self.hard_time_limit_margin_s
+        from app.kinds import KINDS
+
+        return max(self.time_limit_s(k) for k in KINDS) + self.hard_time_limit_margin_s
 
 
 @lru_cache

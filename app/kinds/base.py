@@ -92,11 +92,20 @@ class Preset:
 
 @dataclass
 class KindSpec:
+    """Everything the service needs to know about one kind: adding a kind is its
+    module plus a line in the registry (``app/kinds/__init__.py``)."""
+
     kind: str
     params_model: type[StrictModel]
     run: Callable[[Any, JobContext], RunOutcome]
     presets: list[Preset] = field(default_factory=list)
     summary: str = ""
+    # Soft Celery time limit; TRAJLAB_TIME_LIMIT_<KIND>_S overrides it (Settings.time_limit_s).
+    time_limit_s: float = 600.0
+    # The few numbers the CLI, the console and trade tables show (app.summary); None: a generic pick.
+    key_numbers: Callable[[dict], dict] | None = None
+    # Typed model of the stored result, for documentation and validation; None: untyped JSON.
+    result_model: type[BaseModel] | None = None
 
 
 def json_float(x) -> float | None:

@@ -364,5 +364,6 @@ SPEC = KindSpec(
     params_model=Params,
     run=run,
     presets=PRESETS,
+    time_limit_s=900.0,
     summary="Midcourse-correction timing on a transfer orbit: J2 coasts, Lambert re-targeting, NSGA-II front",
 )

@@ -278,6 +278,6 @@ def run(params: Params, ctx: JobContext) -> RunOutcome:
     return outcome_from_status(sol.status, result)
 
 
-SPEC = KindSpec(kind="robust_reentry", params_model=Params, run=run, presets=PRESETS,
+SPEC = KindSpec(kind="robust_reentry", params_model=Params, run=run, presets=PRESETS, time_limit_s=1800.0,
                 summary="Robust reentry (paper 001): CADET mean/covariance propagation, mean - k sigma design, "
                         "Monte Carlo validation of the deterministic and robust controls")

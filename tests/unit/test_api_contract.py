@@ -93,3 +93,21 @@ def test_list_offset_beyond_64_bits_is_422_not_500(client):
     assert client.get("/v1/jobs", params={"offset": 2**63}).status_code == 422
     r = client.get("/v1/jobs", params={"offset": 2**62})
     assert r.status_code == 200 and r.json()["items"] == []
+
+
+def test_time_limits_come_from_each_kind_and_the_env_overrides_them(monkeypatch):
+    for name in list(__import__("os").environ):
+        if name.startswith("TRAJLAB_TIME_LIMIT_"):
+            monkeypatch.delenv(name)
+    s = Settings()
+    assert {k: s.time_limit_s(k) for k in KIND_NAMES} == {k: KINDS[k].time_limit_s for k in KIND_NAMES}
+    assert s.time_limit_s("robust_reentry") == 1800.0 and s.time_limit_s("midcourse") == 900.0
+    assert s.longest_hard_time_limit_s == 1800.0 + s.hard_time_limit_margin_s
+    monkeypatch.setenv("TRAJLAB_TIME_LIMIT_MIDCOURSE_S", "5")
+    monkeypatch.setenv("TRAJLAB_TIME_LIMIT_ROBUST_REENTRY_S", "4000")
+    s = Settings()
+    assert s.time_limit_s("midcourse") == 5.0 and s.time_limit_s("intercept") == KINDS["intercept"].time_limit_s
+    assert s.longest_hard_time_limit_s == 4000.0 + s.hard_time_limit_margin_s
+    monkeypatch.setenv("TRAJLAB_TIME_LIMIT_MIDCOURSE_S", "-1")
+    with pytest.raises(ValueError):
+        Settings()
