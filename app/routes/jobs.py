@@ -67,8 +67,8 @@ def submit_job(
             publish_job(celery, settings, job_id=job.id, attempt=job.attempts, kind=job.kind, queue=job.queue)
         except Exception as exc:  # the row stays, marked failed with the reason
             log.warning("job %s: publishing failed", job.id, exc_info=True)
-            jobs.mark_publish_failed(db, job.id, f"{type(exc).__name__}: {exc}")
-            # the broker's address and the driver's message stay in the log
+            # the broker's address and the driver's message stay in the log, out of the job's error
+            jobs.mark_publish_failed(db, job.id, type(exc).__name__)
             raise HTTPException(status_code=503, detail=f"job {job.id} stored but the broker is unreachable")
     response.headers["Location"] = f"/v1/jobs/{job.id}"
     return jobs.job_to_dict(job)
