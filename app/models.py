@@ -67,11 +67,15 @@ class Job(Base):
     queue: Mapped[str] = mapped_column(String(32), default="trajlab.jobs", server_default="trajlab.jobs")
     # The owner (API key owner) the job belongs to; None when auth is off.
     owner: Mapped[str | None] = mapped_column(String(100))
+    # A point of a trade study (app/studies.py): the study and the point's index in it.
+    study_id: Mapped[str | None] = mapped_column(ForeignKey("studies.id", ondelete="SET NULL"))
+    study_index: Mapped[int | None] = mapped_column(Integer)
 
     __table_args__ = (
         Index("ix_jobs_created_at", "created_at"),
         Index("ix_jobs_status_kind", "status", "kind"),
         Index("ix_jobs_owner_created_at", "owner", "created_at"),
+        Index("ix_jobs_study_id", "study_id"),
     )
 
 
@@ -99,3 +103,29 @@ class ApiKey(Base):
     created_at: Mapped[datetime] = mapped_column(DateTime(timezone=True), default=utcnow)
     revoked_at: Mapped[datetime | None] = mapped_column(DateTime(timezone=True))
     last_used_at: Mapped[datetime | None] = mapped_column(DateTime(timezone=True))
+
+
+class Study(Base):
+    """A trade study: a base job swept over one or two parameters (app/studies.py)."""
+
+    __tablename__ = "studies"
+
+    id: Mapped[str] = mapped_column(String(32), primary_key=True, default=new_id)
+    kind: Mapped[str] = mapped_column(String(32))
+    label: Mapped[str | None] = mapped_column(String(200))
+    preset: Mapped[str | None] = mapped_column(String(100))
+    mode: Mapped[str] = mapped_column(String(16))
+    status: Mapped[str] = mapped_column(String(16), default="running")
+    base_params: Mapped[dict] = mapped_column(JSON)
+    sweeps: Mapped[list] = mapped_column(JSON)
+    # every point's swept values and resolved params, fixed at submission
+    points: Mapped[list] = mapped_column(JSON)
+    # where a continuation walk stands: {"phase": "forward"|"backward", "cursor": i}
+    walk: Mapped[dict] = mapped_column(JSON)
+    owner: Mapped[str | None] = mapped_column(String(100))
+    queue: Mapped[str] = mapped_column(String(32), default="trajlab.jobs", server_default="trajlab.jobs")
+    cancel_requested: Mapped[bool] = mapped_column(Boolean, default=False)
+    created_at: Mapped[datetime] = mapped_column(DateTime(timezone=True), default=utcnow)
+    finished_at: Mapped[datetime | None] = mapped_column(DateTime(timezone=True))
+
+    __table_args__ = (Index("ix_studies_owner_created_at", "owner", "created_at"),)

@@ -10,7 +10,7 @@ import socket
 
 from celery.exceptions import SoftTimeLimitExceeded
 
-from app import jobs
+from app import jobs, studies
 from app.db import Database, get_database
 from app.kinds import KINDS
 from app.kinds.base import JobCancelled, JobFailure, RunOutcome
@@ -48,6 +48,8 @@ def execute_job(db: Database, settings: Settings, job_id: str, attempt: int, *, 
     message = {"succeeded": "done", "cancelled": "cancelled"}.get(outcome.status) or (outcome.error or {}).get("message", "failed")
     jobs.finish(db, job_id, claim.attempt, status=outcome.status, result=outcome.result,
                 error=outcome.error, message=message[:2000])
+    for nxt in studies.on_point_finished(db, job_id):  # a continuation study's next point
+        publish_job(celery_app, settings, job_id=nxt.id, attempt=nxt.attempts, kind=nxt.kind, queue=nxt.queue)
     return outcome.status
 
 

@@ -1,0 +1,233 @@
+"""/v1/studies: trade studies over any job kind (app/studies.py has the logic)."""
+from __future__ import annotations
+
+import csv
+import io
+from typing import Annotated, Any, Literal
+
+from fastapi import APIRouter, Body, HTTPException, Query, Response
+from fastapi.concurrency import run_in_threadpool
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import PlainTextResponse
+from pydantic import BaseModel, Field, model_validator
+
+from app import quota, studies
+from app.access import Principal, PrincipalDep
+from app.broker import publish_job
+from app.deps import CeleryDep, DatabaseDep, SettingsDep
+from app.kinds import KINDS, PRESETS
+from app.params import deep_merge, resolve_params
+from app.study_presets import STUDY_PRESETS
+
+router = APIRouter(prefix="/v1/studies", tags=["studies"])
+
+
+class Sweep(BaseModel):
+    """One swept parameter: a dotted path into `params` (or several set to the same value) and its values."""
+
+    path: str | list[str] = Field(description="Dotted path(s) into params, e.g. `path.max_heat_rate_w_m2`",
+                                  examples=["intercept_time_s"])
+    values: list[Any] | None = Field(None, max_length=studies.MAX_POINTS, description="The values, in order")
+    start: float | None = None
+    stop: float | None = None
+    count: int | None = Field(None, ge=2, le=studies.MAX_POINTS)
+
+    @model_validator(mode="after")
+    def _values_or_range(self) -> "Sweep":
+        if (self.values is None) == (self.count is None or self.start is None or self.stop is None):
+            raise ValueError("give either values or start, stop and count")
+        if self.values is not None and not self.values:
+            raise ValueError("values must not be empty")
+        paths = [self.path] if isinstance(self.path, str) else self.path
+        if not paths or any(not p or len(p) > 200 for p in paths):
+            raise ValueError("path must name at least one parameter")
+        return self
+
+
+class StudySubmission(BaseModel):
+    kind: str | None = Field(None, description="Job kind (taken from the study preset when one is named)")
+    study_preset: str | None = Field(None, description="A named study (GET /v1/studies/presets)")
+    preset: str | None = Field(None, description="The base job's preset")
+    params: dict[str, Any] | None = Field(None, description="Base job parameters (deep-merged onto the preset)")
+    sweeps: list[Sweep] | None = Field(None, min_length=1, max_length=2)
+    mode: Literal["independent", "continuation"] | None = None
+    label: str | None = Field(None, max_length=200)
+
+
+class StudyOut(BaseModel):
+    id: str
+    kind: str
+    label: str | None
+    preset: str | None
+    mode: str
+    status: str = Field(description="running, finished (every point has a final status) or cancelled")
+    progress: float = Field(description="Share of points finished")
+    points: int
+    points_by_status: dict[str, int]
+    sweeps: list[dict[str, Any]]
+    base_params: dict[str, Any]
+    created_at: str | None
+    finished_at: str | None
+
+
+def _visible(db, study_id: str, principal: Principal):
+    study = studies.get_study(db, study_id)
+    if study is None or not (principal.admin or (study.owner is not None and study.owner == principal.owner)):
+        raise HTTPException(status_code=404, detail=f"study {study_id} not found")
+    return study
+
+
+def _resolve(body: StudySubmission) -> dict:
+    merged: dict = {}
+    if body.study_preset:
+        if body.study_preset not in STUDY_PRESETS:
+            raise HTTPException(status_code=422, detail=f"study_preset must be one of {sorted(STUDY_PRESETS)}")
+        merged = dict(STUDY_PRESETS[body.study_preset])
+    given = body.model_dump(exclude_unset=True, exclude_none=True)
+    given.pop("study_preset", None)
+    if "params" in given:
+        given["params"] = deep_merge(merged.get("params", {}), given["params"])
+    merged.update(given)
+    for name in ("kind", "sweeps", "mode"):
+        if merged.get(name) is None:
+            raise HTTPException(status_code=422, detail=f"{name} is required (or name a study_preset)")
+    if merged["kind"] not in KINDS:
+        raise HTTPException(status_code=422, detail=f"kind must be one of {sorted(KINDS)}")
+    preset = merged.get("preset")
+    if preset is not None and (preset not in PRESETS or PRESETS[preset].kind != merged["kind"]):
+        raise HTTPException(status_code=422, detail=f"preset {preset} is not a {merged['kind']} preset")
+    merged["sweeps"] = [Sweep.model_validate(s).model_dump(exclude_none=True) for s in merged["sweeps"]]
+    return merged
+
+
+@router.get("/presets")
+def list_study_presets() -> dict[str, dict]:
+    return STUDY_PRESETS
+
+
+@router.post("", status_code=202, response_model=StudyOut, operation_id="submit_study",
+             responses={422: {"description": "Invalid base job or sweep (the message names the point and field)"}})
+def submit_study(body: Annotated[StudySubmission, Body(openapi_examples={
+        "preset": {"summary": "A named study", "value": {"study_preset": "crossrange-vs-heating"}}})],
+        response: Response, db: DatabaseDep, settings: SettingsDep, celery: CeleryDep, principal: PrincipalDep):
+    spec_body = _resolve(body)
+    spec = KINDS[spec_body["kind"]]
+    preset_params = PRESETS[spec_body["preset"]].params if spec_body.get("preset") else None
+    base = resolve_params(spec, preset_params, spec_body.get("params"))
+    try:
+        points = studies.expand(base, spec_body["sweeps"])
+    except KeyError as exc:
+        raise HTTPException(status_code=422, detail=f"sweeps: {exc.args[0]}") from None
+    if len(points) > studies.MAX_POINTS:
+        raise HTTPException(status_code=422, detail=f"a study has at most {studies.MAX_POINTS} points")
+    for p in points:  # every point must be a valid job before anything is stored
+        try:
+            p.params = resolve_params(spec, p.params, None)
+        except RequestValidationError as exc:
+            msg = "; ".join(f"{'.'.join(map(str, e['loc'][2:]))}: {e['msg']}" for e in exc.errors())
+            raise HTTPException(status_code=422, detail=f"point {p.index} ({p.values}): {msg}") from None
+    # A study is as much work as its points: an independent one queues all of them at once, a
+    # continuation one runs one at a time, so it is charged its dearest point.
+    costs = [quota.estimate_cost(spec.kind, p.params) for p in points]
+    try:
+        quota.check_quota(db, settings, owner=principal.owner,
+                          cost=sum(costs) if spec_body["mode"] == "independent" else max(costs))
+    except quota.QuotaExceeded as exc:
+        raise HTTPException(status_code=429, detail=exc.message, headers={"Retry-After": str(exc.retry_after_s)})
+    study, created = studies.create_study(
+        db, kind=spec.kind, preset=spec_body.get("preset"), label=spec_body.get("label"), base_params=base,
+        sweeps=spec_body["sweeps"], mode=spec_body["mode"], points=points,
+        owner=principal.owner, queue=quota.queue_for(spec.kind, max(costs), settings))
+    _publish(db, celery, settings, created)
+    response.headers["Location"] = f"/v1/studies/{study.id}"
+    return studies.summary(db, study)
+
+
+def _publish(db, celery, settings, created) -> None:
+    from app import jobs
+
+    for job in created:
+        try:
+            publish_job(celery, settings, job_id=job.id, attempt=job.attempts, kind=job.kind, queue=job.queue)
+            mark = getattr(jobs, "mark_published", None)
+            if mark is not None:
+                mark(db, job.id)
+        except Exception:  # the re-publisher sends it once the broker is back (the row is the truth)
+            pass
+
+
+@router.get("", response_model=list[StudyOut])
+def list_studies(db: DatabaseDep, principal: PrincipalDep,
+                 limit: Annotated[int, Query(ge=1, le=200)] = 50, offset: Annotated[int, Query(ge=0, le=2**62)] = 0):
+    return [studies.summary(db, s) for s in studies.list_studies(db, owner=principal.owner, admin=principal.admin,
+                                                                  limit=limit, offset=offset)]
+
+
+@router.get("/{study_id}", response_model=StudyOut, responses={404: {"description": "Unknown study"}})
+def get_study(study_id: str, db: DatabaseDep, principal: PrincipalDep):
+    return studies.summary(db, _visible(db, study_id, principal))
+
+
+@router.get("/{study_id}/result", responses={404: {"description": "Unknown study"}})
+def get_study_result(study_id: str, db: DatabaseDep, principal: PrincipalDep,
+                     format: Annotated[Literal["json", "csv"], Query()] = "json"):
+    """The trade table: one row per point (swept values, status, key numbers, job id)."""
+    study = _visible(db, study_id, principal)
+    rows = studies.trade_table(db, study)
+    if format == "csv":
+        columns: list[str] = []
+        for row in rows:
+            columns += [c for c in row if c not in columns]
+        buf = io.StringIO()
+        writer = csv.DictWriter(buf, fieldnames=columns, lineterminator="\n")
+        writer.writeheader()
+        writer.writerows(rows)
+        return PlainTextResponse(buf.getvalue(), media_type="text/csv")
+    return {"study": studies.summary(db, study), "rows": rows}
+
+
+@router.post("/{study_id}/cancel", status_code=202, response_model=StudyOut,
+             responses={404: {"description": "Unknown study"}})
+def cancel_study(study_id: str, db: DatabaseDep, principal: PrincipalDep):
+    _visible(db, study_id, principal)
+    studies.request_cancel(db, study_id)
+    return studies.summary(db, studies.get_study(db, study_id))
+
+
+@router.get("/{study_id}/plot.{fmt}", responses={404: {"description": "Unknown study"},
+                                                  200: {"content": {"image/png": {}, "image/svg+xml": {}}}})
+async def study_plot(study_id: str, fmt: Literal["png", "svg"], db: DatabaseDep, principal: PrincipalDep):
+    """The trade curve: each key number against the (first) swept value; failed points marked on the axis."""
+    study = await run_in_threadpool(_visible, db, study_id, principal)
+    rows = await run_in_threadpool(studies.trade_table, db, study)
+    body = await run_in_threadpool(render_trade_curve, study, rows, fmt)
+    return Response(body, media_type="image/png" if fmt == "png" else "image/svg+xml")
+
+
+def render_trade_curve(study, rows: list[dict], fmt: str) -> bytes:
+    from matplotlib.figure import Figure
+
+    x_name = next(iter(rows[0])) if rows else "value"
+    x_name = [k for k in rows[0] if k != "index"][0] if rows else x_name
+    skip = {"index", x_name, "status", "job_id", "warm_start_from", "error_code"}
+    numeric = [k for k in dict.fromkeys(k for r in rows for k in r)
+               if k not in skip and all(isinstance(r.get(k), (int, float, type(None))) for r in rows)
+               and any(isinstance(r.get(k), (int, float)) for r in rows)][:4]
+    fig = Figure(figsize=(8, 2.6 * max(1, len(numeric))), dpi=100)
+    axes = fig.subplots(max(1, len(numeric)), 1, squeeze=False)[:, 0]
+    for ax, name in zip(axes, numeric or ["(no numbers yet)"]):
+        ok = [(r[x_name], r[name]) for r in rows if r["status"] == "succeeded" and isinstance(r.get(name), (int, float))]
+        if ok:
+            ax.plot(*zip(*ok), "o-", ms=4)
+        failed = [r[x_name] for r in rows if r["status"] == "failed"]
+        if failed:
+            ax.plot(failed, [ax.get_ylim()[0]] * len(failed), "rx", ms=8, label="failed (e.g. infeasible)")
+            ax.legend(loc="best", fontsize=8)
+        ax.set_ylabel(name)
+        ax.grid(True, alpha=0.3)
+    axes[-1].set_xlabel(x_name)
+    fig.suptitle(f"study {study.label or study.id[:8]}: {study.kind} trade curve")
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format=fmt)
+    return buf.getvalue()
