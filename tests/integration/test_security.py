@@ -175,7 +175,6 @@ def test_readyz_says_up_without_internals(secure):
     assert r.status_code == 200 and r.json() == {"status": "ready", "database": "up", "broker": "up"}
 
 
-@pytest.mark.slow
 def test_quick_job_finishes_while_two_heavy_jobs_hold_the_heavy_workers(secure):
     heavy = [secure.submit(who, HEAVY).json() for who in ("heavy1", "heavy2")]
     try:
