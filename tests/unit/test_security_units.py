@@ -206,3 +206,16 @@ def test_cost_budget_admits_one_big_job_alone_but_not_on_top(sqlite_db):
         quota.check_quota(sqlite_db, s, owner="dave", cost=201)
     quota.check_quota(sqlite_db, s, owner="erin", cost=1000)  # another owner's budget is untouched
     quota.check_quota(sqlite_db, s, owner=None, cost=1e12)  # auth off: no quota
+
+
+def test_an_idempotency_key_of_another_owner_is_a_conflict_not_their_job(sqlite_db):
+    job, created = jobs.create_job(sqlite_db, kind="intercept", params={}, label=None, preset=None,
+                                   idempotency_key="k-1", request_hash="h", owner="alice")
+    again, created_again = jobs.create_job(sqlite_db, kind="intercept", params={}, label=None, preset=None,
+                                           idempotency_key="k-1", request_hash="h", owner="alice")
+    assert created and not created_again and again.id == job.id
+    with pytest.raises(jobs.IdempotencyConflict):
+        jobs.create_job(sqlite_db, kind="intercept", params={}, label=None, preset=None,
+                        idempotency_key="k-1", request_hash="h", owner="bob")
+    assert jobs.find_idempotent(sqlite_db, "k-1", owner="bob") is None
+    assert jobs.find_idempotent(sqlite_db, "k-1", owner="alice").id == job.id
