@@ -24,6 +24,7 @@ run: install
 	$(VENV)/bin/trajlab serve --port $(PORT)
 
 test: install-test
+	$(VENV)/bin/lint-imports
 	$(PY) -m pytest
 
 bench: install

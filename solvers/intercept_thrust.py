@@ -54,7 +54,7 @@ from solvers.astro.j2 import MU_EARTH
 from solvers.common import Outcome, ProgressFn, SolveStatus, StopFn
 from solvers.models import relative_motion as rm
 from solvers.transcription.lgl import (
-    Mesh, _legendre, collocation_constraints, lagrange_matrix, lgl_integration_matrix, lgl_nodes, lgl_weights,
+    Mesh, legendre, collocation_constraints, lagrange_matrix, lgl_integration_matrix, lgl_nodes, lgl_weights,
 )
 from solvers.transcription.nlp import NLPSolver, cached_solver
 
@@ -554,7 +554,7 @@ def _filter_costates(lam: np.ndarray, N: int) -> np.ndarray:
     """
     tau = lgl_nodes(N)
     w = lgl_weights(N)
-    P = _legendre(N - 1, tau)
+    P = legendre(N - 1, tau)
     L = lam.reshape((lam.shape[0], -1, N))
     c = np.einsum("ksn,n->ks", L, w * P) / float(w @ P**2)
     return (L - c[..., None] * P).reshape(lam.shape)

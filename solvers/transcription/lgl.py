@@ -58,7 +58,7 @@ def _lgl(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         x = x_old - (x * P[:, N] - P[:, N - 1]) / (n * P[:, N])
     x = np.sort(x)
     x[0], x[-1] = -1.0, 1.0
-    PN = _legendre(N, x)
+    PN = legendre(N, x)
     w = 2.0 / (N * (N + 1) * PN**2)
     with np.errstate(divide="ignore", invalid="ignore"):
         D = (PN[:, None] / PN[None, :]) / (x[:, None] - x[None, :])
@@ -70,7 +70,8 @@ def _lgl(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return x, w, D
 
 
-def _legendre(N: int, x: np.ndarray) -> np.ndarray:
+def legendre(N: int, x: np.ndarray) -> np.ndarray:
+    """Legendre polynomial ``P_N`` at ``x`` (three-term recurrence)."""
     p0, p1 = np.ones_like(x), x
     if N == 0:
         return p0

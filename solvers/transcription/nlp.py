@@ -214,6 +214,12 @@ _CACHE_LOCK = threading.Lock()
 CACHE_SIZE = 16
 
 
+def clear_cache() -> None:
+    """Forget every built solver (benchmarks time a cold build with it)."""
+    with _CACHE_LOCK:
+        _CACHE.clear()
+
+
 def cached_solver(key: tuple, build: Callable[[], NLPSolver]) -> tuple[NLPSolver, bool]:
     """Return ``(solver, was_cached)`` for a problem structure ``key`` (hashable).
 
