@@ -5,6 +5,7 @@ Every request the browser makes is recorded: none may leave 127.0.0.1.
 from __future__ import annotations
 
 import shutil
+import uuid
 from urllib.parse import urlparse
 
 import pytest
@@ -93,3 +94,36 @@ def test_compare_two_jobs_on_one_plot(browser_page, service):
     page.goto(f"{url}/compare?ids={','.join(ids)}")
     page.wait_for_function("document.querySelector('#compare-img').naturalWidth > 0")
     assert page.eval_on_selector("#compare-img", "img => img.naturalWidth") == 800
+
+
+def test_with_keys_the_console_asks_once_and_shows_only_that_owners_jobs(browser_page, service):
+    from fastapi.testclient import TestClient
+
+    from app.auth import create_key
+    from app.main import create_app
+
+    _, page, _ = browser_page
+    settings = service.settings.model_copy(update={"auth": "required"})
+    app = create_app(settings)
+    suffix = uuid.uuid4().hex[:6]
+    _, key_a = create_key(app.state.db, name=f"console-a-{suffix}")
+    _, key_b = create_key(app.state.db, name=f"console-b-{suffix}")
+    with TestClient(app) as client:
+        ids = {}
+        for who, key in (("a", key_a), ("b", key_b)):
+            r = client.post("/v1/jobs", json={"kind": "intercept", "preset": "long-range-intercept",
+                                              "params": IMPULSIVE, "label": f"owner-{who}-{suffix}"},
+                            headers={"Authorization": f"Bearer {key}"})
+            assert r.status_code == 202, r.text
+            ids[who] = r.json()["id"]
+    with live_server(app) as url:
+        page.goto(f"{url}/")
+        page.wait_for_selector("#key-box:not([hidden])")  # a 401 from /v1/jobs: the console asks for a key
+        page.fill("#key-input", key_a)
+        page.click("#key-form button")
+        page.wait_for_selector(f'tr[data-id="{ids["a"]}"]')
+        assert page.locator(f'tr[data-id="{ids["b"]}"]').count() == 0
+        assert "API key set" in page.inner_text("#key-status")
+        page.goto(f"{url}/jobs/{ids['b']}")  # another owner's job is not found, even by its id
+        page.wait_for_function("document.querySelector('#error').textContent.includes('not found')")
+        page.evaluate("localStorage.removeItem('trajlab.apiKey')")
