@@ -32,28 +32,22 @@ import time
 import casadi as ca
 import numpy as np
 
-from solvers.astro.elements import Elements, elements_to_state
 from solvers.intercept import InterceptProblem, ScanSettings, solve_impulsive
+from solvers.intercept_cases import PAPER_003, REFERENCE_FUEL_KG
 from solvers.intercept_thrust import (
     FiniteThrustProblem,
     ImpulsiveGuess,
     MeshOptions,
-    _plan_impulsive,
-    _propagate_hill,
-    _scale,
-    _verify,
+    nondimensionalise,
+    plan_impulsive,
+    propagate_hill,
     solve_finite_thrust,
+    verify_controls,
 )
 from solvers.models import relative_motion as rm
 from solvers.transcription import nlp
 from solvers.transcription.lgl import Mesh
 from solvers.transcription.multiple_shooting import PathConstraint, ShootingProblem, Transcription
-
-MU = 3.986004418e14
-D = np.radians
-INTERCEPTOR = Elements(16678.137e3, 0.2, D(28.5), 0.0, 0.0, D(1.54))
-TARGET = Elements(6878.137e3, 0.0, D(30.0), 0.0, 0.0, D(2.05))
-REFERENCE_FUEL_KG = 270.84   # spec: careful reimplementation, 200-interval multiple shooting, 72 s
 
 MS_INTERVALS = 200
 MS_SUBSTEPS = 4              # 10 s RK4 steps (n h = 0.011): the DOP853 re-propagation agrees to < 1 m
@@ -62,14 +56,12 @@ BASELINE_BUDGET_S = 120.0    # cold + warm baseline; each IPOPT call gets half (
 
 
 def _problem(**kw) -> FiniteThrustProblem:
-    ri, vi = elements_to_state(MU, INTERCEPTOR)
-    rt, vt = elements_to_state(MU, TARGET)
-    return FiniteThrustProblem(r_interceptor_m=ri, v_interceptor_mps=vi, r_target_m=rt, v_target_mps=vt, **kw)
+    return FiniteThrustProblem(scenario=PAPER_003, **kw)
 
 
 def _impulsive_guess() -> tuple[ImpulsiveGuess, float]:
     t0 = time.perf_counter()
-    sol = solve_impulsive(InterceptProblem(INTERCEPTOR, TARGET, scan=ScanSettings(step_s=5.0, retrograde=False)))
+    sol = solve_impulsive(InterceptProblem(PAPER_003, scan=ScanSettings(step_s=5.0, retrograde=False)))
     if not sol.status.ok:
         raise SystemExit(f"impulsive warm start failed: {sol.status.message}")
     return ImpulsiveGuess(sol.best_t_man_s, sol.delta_v_vector_mps), time.perf_counter() - t0
@@ -102,8 +94,8 @@ def _shooting_structure() -> ShootingProblem:
 def _shooting_guess(problem: FiniteThrustProblem, guess: ImpulsiveGuess):
     """The impulsive optimum spread over the intervals it overlaps (throttle = overlap fraction,
     so the guess burns the impulse's propellant), states propagated under those controls."""
-    s = _scale(problem)
-    plan = _plan_impulsive(guess, problem, s, s.tf)
+    s = nondimensionalise(problem)
+    plan = plan_impulsive(guess, problem, s, s.tf)
     t = np.linspace(0.0, s.tf, MS_INTERVALS + 1)
     u = np.zeros((rm.NU, MS_INTERVALS))
     for a, b in plan.windows:
@@ -114,19 +106,19 @@ def _shooting_guess(problem: FiniteThrustProblem, guess: ImpulsiveGuess):
         k = min(int(np.searchsorted(t, tt, side="right")) - 1, MS_INTERVALS - 1)
         return u[0, k], u[1:, k]
 
-    x = _propagate_hill(s, t, control, breaks=t[1:-1])
+    x = propagate_hill(s, t, control, breaks=t[1:-1])
     return s, t, x, u
 
 
 def _repropagate_constant(problem: FiniteThrustProblem, s, x: np.ndarray, u: np.ndarray, tf: float) -> dict:
     """The miss of piecewise-constant controls, by the same routine as the LGL rows.
 
-    ``_verify`` interpolates per-segment Lagrange polynomials through node values; a segment
+    ``verify_controls`` interpolates per-segment Lagrange polynomials through node values; a segment
     whose 3 nodes carry the same control is that constant, so the baseline's controls go
     through it unchanged.  Only the last state column is read (for the propellant).
     """
     mesh = Mesh.uniform(MS_INTERVALS, 3)
-    return _verify(problem, s, mesh, np.repeat(x[:, 1:], 3, axis=1), np.repeat(u, 3, axis=1), tf)
+    return verify_controls(problem, s, mesh, np.repeat(x[:, 1:], 3, axis=1), np.repeat(u, 3, axis=1), tf)
 
 
 def solve_multiple_shooting(problem: FiniteThrustProblem, guess: ImpulsiveGuess) -> dict:
@@ -149,7 +141,7 @@ def solve_multiple_shooting(problem: FiniteThrustProblem, guess: ImpulsiveGuess)
         burns.append({"start_s": float(ts[k]), "end_s": float(ts[j + 1])})
     st = res.status
     return {"status": st, "build_s": 0.0 if res.was_cached else tr.solver.build_time_s,
-            "ipopt_s": st.solve_time_s, "fuel_kg": float((1.0 - res.x[6, -1]) * problem.mass_kg),
+            "ipopt_s": st.solve_time_s, "fuel_kg": float((1.0 - res.x[6, -1]) * problem.scenario.mass_kg),
             "miss_m": ver["miss_distance_m"], "burns": burns,
             "partial_throttle_intervals": int(np.sum((res.u[0] > 1e-3) & (res.u[0] < 1 - 1e-3)))}
 
@@ -180,7 +172,7 @@ def _load_ipopt() -> None:
 
 
 def _cold_and_warm(fn) -> tuple[dict, float, float]:
-    nlp._CACHE.clear()
+    nlp.clear_cache()
     out, cold = _timed(fn)
     _, warm = _timed(fn)       # same structure again: the built solver comes from the cache
     return out, cold, warm

@@ -19,7 +19,7 @@ The paper uses Battin-Vaughan's Lambert algorithm and reports 1501.73 m/s at
 ``solve`` dispatches over ``problem.methods``; a method is a function
 ``(problem, *, on_progress, should_stop, initial_guess, earlier) -> <Method>Solution``
 registered in ``METHODS`` (``earlier``: the impulsive solution when it ran
-first; the finite-thrust method lives in ``solvers/intercept_thrust.py`` and
+first; the finite-thrust method lives in ``solvers/intercept_thrust/`` and
 starts from the impulsive answer).
 """
 from __future__ import annotations
@@ -31,14 +31,13 @@ from typing import Callable
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from solvers.astro.elements import Elements, elements_to_state
-from solvers.astro.j2 import MU_EARTH   # m^3/s^2, the spec's (and paper's) value
 from solvers.astro.kepler import propagate
 from solvers.astro.lambert import lambert
 from solvers.common import Outcome, ProgressFn, SolveStatus, StopFn, never_stop, noop_progress
-from solvers.intercept_thrust import MeshOptions
-
-G0 = 9.80665               # m/s^2, standard gravity; the paper's fuel figures use 9.8
+from solvers.intercept_scenario import InterceptScenario
+from solvers.intercept_thrust import (
+    FiniteThrustProblem, FiniteThrustSolution, ImpulsiveGuess, MeshOptions, solve_finite_thrust,
+)
 
 
 @dataclass(frozen=True)
@@ -67,19 +66,9 @@ class PorkchopSettings:
 
 @dataclass(frozen=True)
 class InterceptProblem:
-    """The scenario in SI units and radians; epoch t0 = 0."""
+    """The scenario and how to solve it: which methods, the scan, the mesh, the porkchop."""
 
-    interceptor_orbit: Elements
-    target_orbit: Elements
-    mass_kg: float = 500.0
-    propellant_kg: float = 400.0
-    isp_s: float = 300.0
-    max_thrust_n: float = 2000.0
-    intercept_time_s: float = 8080.5
-    free_final_time: bool = False
-    tf_bounds_s: tuple[float, float] = (6000.0, 10200.0)
-    mu_m3_s2: float = MU_EARTH
-    g0_mps2: float = G0
+    scenario: InterceptScenario
     methods: tuple[str, ...] = ("impulsive",)
     scan: ScanSettings = field(default_factory=ScanSettings)
     mesh: MeshOptions = field(default_factory=MeshOptions)   # finite-thrust collocation
@@ -123,7 +112,7 @@ class ImpulsiveSolution:
     delta_v_vector_mps: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
     fuel_kg: float = float("nan")
     best_branch: Branch | None = None
-    intercept_time_s: float = float("nan")
+    tf_s: float = float("nan")                  # the interception time
     burn_position_m: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
     velocity_before_mps: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
     velocity_after_mps: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
@@ -139,11 +128,6 @@ class InterceptSolution:
     status: SolveStatus
     impulsive: ImpulsiveSolution | None = None
     finite_thrust: object | None = None
-
-
-def fuel_kg(mass_kg: float, delta_v_mps, isp_s: float, g0: float):
-    """Propellant for delta-v from the rocket equation (Tsiolkovsky)."""
-    return mass_kg * (1.0 - np.exp(-np.asarray(delta_v_mps) / (isp_s * g0)))
 
 
 def _branches(scan: ScanSettings) -> list[Branch]:
@@ -169,10 +153,10 @@ def solve_impulsive(problem: InterceptProblem, *, on_progress: ProgressFn | None
     progress = on_progress or noop_progress
     stop = should_stop or never_stop
     t_start = time.perf_counter()
-    mu, t1 = problem.mu_m3_s2, problem.intercept_time_s
+    sn = problem.scenario
+    mu, t1 = sn.mu_m3_s2, sn.tf_s
     scan = problem.scan
-    r0i, v0i = elements_to_state(mu, problem.interceptor_orbit)
-    r0t, v0t = elements_to_state(mu, problem.target_orbit)
+    r0i, v0i, r0t, v0t = sn.initial_states()
     r_t1, v_t1 = propagate(mu, r0t, v0t, t1)
 
     t_end = t1 if scan.t_end_s is None else min(scan.t_end_s, t1)
@@ -182,7 +166,7 @@ def solve_impulsive(problem: InterceptProblem, *, on_progress: ProgressFn | None
     dv_all = np.full((len(branches), n), np.nan)
     empty = ImpulsiveSolution(
         status=SolveStatus(Outcome.FAILED), t_man_s=grid, delta_v_mps=np.full(n, np.nan),
-        branch_index=np.full(n, -1), branches=branches, intercept_time_s=t1)
+        branch_index=np.full(n, -1), branches=branches, tf_s=t1)
     if n == 0:
         empty.status = SolveStatus(Outcome.FAILED, solver_status="empty_window",
                                    message="the maneuver window [t_start, min(t_end, t1)) is empty")
@@ -203,7 +187,7 @@ def solve_impulsive(problem: InterceptProblem, *, on_progress: ProgressFn | None
     branch_index = np.where(any_ok, np.argmin(np.where(finite, dv_all, np.inf), axis=0), -1)
     curve = np.where(any_ok, np.min(np.where(finite, dv_all, np.inf), axis=0), np.nan)
     sol = ImpulsiveSolution(status=SolveStatus(Outcome.FAILED), t_man_s=grid, delta_v_mps=curve,
-                            branch_index=branch_index, branches=branches, intercept_time_s=t1)
+                            branch_index=branch_index, branches=branches, tf_s=t1)
     if not any_ok.any():
         sol.status = SolveStatus(Outcome.INFEASIBLE, solver_status="no_lambert_solution",
                                  message="no Lambert branch reaches the target from any maneuver time",
@@ -241,7 +225,7 @@ def solve_impulsive(problem: InterceptProblem, *, on_progress: ProgressFn | None
     sol.best_t_man_s = t_best
     sol.best_delta_v_mps = dv_best
     sol.delta_v_vector_mps = dvec
-    sol.fuel_kg = float(fuel_kg(problem.mass_kg, dv_best, problem.isp_s, problem.g0_mps2))
+    sol.fuel_kg = float(sn.fuel_kg(dv_best))
     sol.best_branch = branch
     sol.burn_position_m = r_b
     sol.velocity_before_mps = v_b
@@ -255,11 +239,11 @@ def solve_impulsive(problem: InterceptProblem, *, on_progress: ProgressFn | None
     elapsed = time.perf_counter() - t_start
     details = {"branch": branch.label(), "grid_points": int(n),
                "refine_evaluations": iterations, "miss_distance_m": sol.miss_distance_m}
-    if sol.fuel_kg > problem.propellant_kg:
+    if sol.fuel_kg > sn.propellant_kg:
         sol.status = SolveStatus(
             Outcome.INFEASIBLE, solver_status="insufficient_propellant",
             message=(f"best single burn needs {sol.fuel_kg:.1f} kg of propellant, "
-                     f"only {problem.propellant_kg:.1f} kg on board"),
+                     f"only {sn.propellant_kg:.1f} kg on board"),
             iterations=iterations, solve_time_s=elapsed, details=details)
     else:
         sol.status = SolveStatus(Outcome.OPTIMAL, solver_status="Scan_Refined",
@@ -272,14 +256,14 @@ def solve_impulsive(problem: InterceptProblem, *, on_progress: ProgressFn | None
 def _porkchop(problem: InterceptProblem, r0i, v0i, r0t, v0t, branches, progress) -> Porkchop:
     """Delta-v over (maneuver time, interception time), min over branches."""
     pc = problem.porkchop
-    t1 = problem.intercept_time_s
+    mu, t1 = problem.scenario.mu_m3_s2, problem.scenario.tf_s
     ti_lo = 0.5 * t1 if pc.t_intercept_min_s is None else pc.t_intercept_min_s
     ti_hi = 1.5 * t1 if pc.t_intercept_max_s is None else pc.t_intercept_max_s
     tm_hi = ti_hi if pc.t_man_max_s is None else pc.t_man_max_s
     t_man = np.linspace(pc.t_man_min_s, tm_hi, pc.t_man_points, endpoint=pc.t_man_max_s is not None)
     t_int = np.linspace(ti_lo, ti_hi, pc.t_intercept_points)
-    r_m, v_m = propagate(problem.mu_m3_s2, r0i, v0i, t_man)
-    r_i, _ = propagate(problem.mu_m3_s2, r0t, v0t, t_int)
+    r_m, v_m = propagate(mu, r0i, v0i, t_man)
+    r_i, _ = propagate(mu, r0t, v0t, t_int)
     tm_g, ti_g = np.meshgrid(t_man, t_int, indexing="ij")
     ok = (ti_g - tm_g).ravel() > 0.0
     rm = np.repeat(r_m, t_int.size, axis=0)[ok]
@@ -289,7 +273,7 @@ def _porkchop(problem: InterceptProblem, r0i, v0i, r0t, v0t, branches, progress)
     best = np.full(ok.size, np.inf)
     sub = np.full(ok.sum(), np.inf)
     for branch in branches:
-        dv, _ = _delta_v(problem.mu_m3_s2, rm, vm, ri, tof, branch)
+        dv, _ = _delta_v(mu, rm, vm, ri, tof, branch)
         d = np.linalg.norm(dv, axis=1)
         sub = np.where(np.isfinite(d) & (d < sub), d, sub)
     best[ok] = sub
@@ -310,14 +294,12 @@ def _impulsive_start(problem: InterceptProblem, earlier: ImpulsiveSolution | Non
     multimodal in tf (the geometry repeats with the target's period), so a
     local NLP started elsewhere would keep the nearest local optimum.
     """
-    from solvers.intercept_thrust import ImpulsiveGuess
-
-    tf = problem.intercept_time_s
+    sn = problem.scenario
+    tf = sn.tf_s
     base = replace(problem, porkchop=None, scan=replace(problem.scan, t_end_s=None, t_start_s=0.0))
-    if problem.free_final_time:
-        lo, hi = problem.tf_bounds_s
-        r0i, v0i = elements_to_state(problem.mu_m3_s2, problem.interceptor_orbit)
-        r0t, v0t = elements_to_state(problem.mu_m3_s2, problem.target_orbit)
+    if sn.free_final_time:
+        lo, hi = sn.tf_bounds_s
+        r0i, v0i, r0t, v0t = sn.initial_states()
         pc_problem = replace(base, porkchop=PorkchopSettings(
             t_man_points=240, t_intercept_points=int(np.clip((hi - lo) / 60.0, 40, 400)) + 1, t_man_min_s=0.0,
             t_man_max_s=hi, t_intercept_min_s=lo, t_intercept_max_s=hi))
@@ -325,8 +307,8 @@ def _impulsive_start(problem: InterceptProblem, earlier: ImpulsiveSolution | Non
         if np.isfinite(pc.best_t_intercept_s):
             tf = pc.best_t_intercept_s
         earlier = None
-    if earlier is None or not earlier.status.ok or abs(earlier.intercept_time_s - tf) > 1e-9:
-        earlier = solve_impulsive(replace(base, intercept_time_s=tf, scan=replace(base.scan, step_s=5.0)),
+    if earlier is None or not earlier.status.ok or abs(earlier.tf_s - tf) > 1e-9:
+        earlier = solve_impulsive(replace(base, scenario=replace(sn, tf_s=tf), scan=replace(base.scan, step_s=5.0)),
                                   should_stop=stop)
     if not np.all(np.isfinite(earlier.delta_v_vector_mps)):
         return None, tf, earlier
@@ -342,12 +324,8 @@ def solve_finite(problem: InterceptProblem, *, on_progress: ProgressFn | None = 
     one the impulsive answer is the warm start.  ``earlier``: an impulsive
     solution already computed for this problem, reused when it fits.
     """
-    from solvers.intercept_thrust import FiniteThrustProblem, FiniteThrustSolution, solve_finite_thrust
-
     progress = on_progress or noop_progress
-    ri, vi = elements_to_state(problem.mu_m3_s2, problem.interceptor_orbit)
-    rt, vt = elements_to_state(problem.mu_m3_s2, problem.target_orbit)
-    tf = problem.intercept_time_s
+    tf = problem.scenario.tf_s
     warm = "trajectory of a stored solution"
     if initial_guess is None:
         progress(0.0, "impulsive warm start")
@@ -359,12 +337,7 @@ def solve_finite(problem: InterceptProblem, *, on_progress: ProgressFn | None = 
                         f"({imp.status.message})"))
         warm = (f"impulsive optimum: {np.linalg.norm(initial_guess.delta_v_mps):.2f} m/s at "
                 f"t_man {initial_guess.t_man_s:.1f} s, interception at {tf:.1f} s")
-    fp = FiniteThrustProblem(
-        r_interceptor_m=ri, v_interceptor_mps=vi, r_target_m=rt, v_target_mps=vt,
-        mass_kg=problem.mass_kg, propellant_kg=problem.propellant_kg, isp_s=problem.isp_s,
-        max_thrust_n=problem.max_thrust_n, g0_mps2=problem.g0_mps2, mu_m3_s2=problem.mu_m3_s2, tf_s=tf,
-        free_final_time=problem.free_final_time, tf_min_s=problem.tf_bounds_s[0],
-        tf_max_s=problem.tf_bounds_s[1], mesh=problem.mesh)
+    fp = FiniteThrustProblem(scenario=replace(problem.scenario, tf_s=tf), mesh=problem.mesh)
     sol = solve_finite_thrust(fp, initial_guess=initial_guess,
                               on_progress=lambda f, m: progress(0.05 + 0.95 * f, m), should_stop=should_stop)
     sol.warm_start = warm

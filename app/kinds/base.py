@@ -114,6 +114,20 @@ def json_float(x) -> float | None:
     return x if math.isfinite(x) else None
 
 
+def json_value(x):
+    """Plain JSON from solver output (numpy arrays and scalars, nested dicts and lists),
+    every float through :func:`json_float`."""
+    if isinstance(x, dict):
+        return {k: json_value(v) for k, v in x.items()}
+    if hasattr(x, "tolist") and not isinstance(x, (bool, int, float)):
+        x = x.tolist()   # numpy arrays and scalars to Python lists and numbers
+    if isinstance(x, (list, tuple)):
+        return [json_value(v) for v in x]
+    if isinstance(x, float):
+        return json_float(x)
+    return x
+
+
 def warm_start_from_job(ctx: JobContext, job_id: str, parse, *, field: str, what: str):
     """``parse(stored result)`` of another job as a warm start; a user-facing
     :class:`JobFailure` naming ``field`` when the job is missing or unusable."""

@@ -5,17 +5,18 @@ import math
 import numpy as np
 import pytest
 
-from app.kinds.intercept import PRESETS, SPEC, Params, run, to_problem
+from app.kinds.intercept import PRESETS, SPEC, run, to_problem
+from app.kinds.intercept_params import InterceptParams
 from solvers.astro.elements import Elements, elements_to_state, state_to_elements
 from solvers.astro.kepler import propagate
 from solvers.common import Outcome
-from solvers.intercept import InterceptProblem, PorkchopSettings, ScanSettings, fuel_kg, solve, solve_impulsive
+from dataclasses import replace
+
+from solvers.intercept import InterceptProblem, PorkchopSettings, ScanSettings, solve, solve_impulsive
+from solvers.intercept_cases import IMPULSIVE_DELTA_V_MPS, IMPULSIVE_T_MAN_S, PAPER_003
 
 D = math.radians
-PAPER = InterceptProblem(
-    interceptor_orbit=Elements(a=16678.137e3, e=0.2, i=D(28.5), raan=0.0, argp=0.0, nu=D(1.54)),
-    target_orbit=Elements(a=6878.137e3, e=0.0, i=D(30.0), raan=0.0, argp=0.0, nu=D(2.05)),
-)
+PAPER = InterceptProblem(PAPER_003)
 
 
 class Ctx:
@@ -52,13 +53,13 @@ def test_elements_round_trip():
 def test_paper_scenario_minimum(paper_solution):
     sol = paper_solution
     assert sol.status.outcome is Outcome.OPTIMAL
-    assert abs(sol.best_delta_v_mps - 2302.48) < 0.01
-    assert abs(sol.best_t_man_s - 3142.5) < 0.5
+    assert abs(sol.best_delta_v_mps - IMPULSIVE_DELTA_V_MPS) < 0.01
+    assert abs(sol.best_t_man_s - IMPULSIVE_T_MAN_S) < 0.5
     assert sol.best_branch.prograde and sol.best_branch.revolutions == 0
     assert abs(np.linalg.norm(sol.delta_v_vector_mps) - sol.best_delta_v_mps) < 1e-6
     # fuel from the rocket equation, g0 = 9.80665 (the paper's 9.8 gives 271.5 kg)
     assert abs(sol.fuel_kg - 271.4) < 0.05
-    assert abs(fuel_kg(500.0, sol.best_delta_v_mps, 300.0, 9.8) - 271.52) < 0.05
+    assert abs(replace(PAPER_003, g0_mps2=9.8).fuel_kg(sol.best_delta_v_mps) - 271.52) < 0.05
     # the burn really reaches the target: independent re-propagation misses by < 1 mm
     assert sol.miss_distance_m < 1e-3
 
@@ -80,23 +81,22 @@ def test_scan_is_the_grid_and_refinement_is_the_minimum(paper_solution):
 def test_scan_point_matches_a_direct_single_lambert():
     # the value at one grid time agrees with an independent scalar computation
     from solvers.astro.lambert import lambert
-    mu = PAPER.mu_m3_s2
-    ri, vi = elements_to_state(mu, PAPER.interceptor_orbit)
-    rt, vt = elements_to_state(mu, PAPER.target_orbit)
+    mu = PAPER_003.mu_m3_s2
+    ri, vi, rt, vt = PAPER_003.initial_states()
     r_t1, _ = propagate(mu, rt, vt, 8080.5)
     r, v = propagate(mu, ri, vi, 1000.0)
     one = lambert(mu, r, r_t1, 7080.5)
-    sol = solve_impulsive(InterceptProblem(**{**PAPER.__dict__, "scan": ScanSettings(step_s=500.0, retrograde=False)}))
+    sol = solve_impulsive(replace(PAPER, scan=ScanSettings(step_s=500.0, retrograde=False)))
     assert sol.t_man_s[2] == 1000.0
     assert abs(np.linalg.norm(one.v1 - v) - sol.delta_v_mps[2]) < 1e-9
 
 
 def test_insufficient_propellant_is_infeasible():
-    prob = InterceptProblem(**{**PAPER.__dict__, "propellant_kg": 200.0, "scan": ScanSettings(step_s=10.0)})
+    prob = replace(PAPER, scenario=replace(PAPER_003, propellant_kg=200.0), scan=ScanSettings(step_s=10.0))
     sol = solve_impulsive(prob)
     assert sol.status.outcome is Outcome.INFEASIBLE
     assert sol.status.solver_status == "insufficient_propellant"
-    assert abs(sol.best_delta_v_mps - 2302.48) < 0.01
+    assert abs(sol.best_delta_v_mps - IMPULSIVE_DELTA_V_MPS) < 0.01
 
 
 def test_cancel_and_progress():
@@ -110,10 +110,9 @@ def test_cancel_and_progress():
 
 
 def test_porkchop_contains_the_fixed_time_minimum():
-    prob = InterceptProblem(**{**PAPER.__dict__, "scan": ScanSettings(step_s=5.0),
-                               "porkchop": PorkchopSettings(t_man_points=41, t_intercept_points=5,
-                                                            t_man_min_s=0.0, t_man_max_s=8000.0,
-                                                            t_intercept_min_s=6080.5, t_intercept_max_s=10080.5)})
+    prob = replace(PAPER, scan=ScanSettings(step_s=5.0),
+                   porkchop=PorkchopSettings(t_man_points=41, t_intercept_points=5, t_man_min_s=0.0, t_man_max_s=8000.0,
+                                             t_intercept_min_s=6080.5, t_intercept_max_s=10080.5))
     sol = solve_impulsive(prob)
     pc = sol.porkchop
     assert pc.delta_v_mps.shape == (41, 5)
@@ -130,7 +129,7 @@ def test_porkchop_contains_the_fixed_time_minimum():
 def test_kind_run_preset_impulsive_only():
     preset = PRESETS[0]
     assert preset.name == "long-range-intercept" and "2302.48" in preset.description and "1501.73" in preset.description
-    params = Params.model_validate({**preset.params, "methods": ["impulsive"]})
+    params = InterceptParams.model_validate({**preset.params, "methods": ["impulsive"]})
     ctx = Ctx()
     out = run(params, ctx)
     assert out.status == "succeeded"
@@ -146,7 +145,7 @@ def test_kind_run_preset_impulsive_only():
 def test_kind_runs_both_methods_with_porkchop():
     """Default methods: the impulsive scan, its porkchop, and the finite-thrust
     solution warm-started from it, compared in one table."""
-    params = Params.model_validate({"scan": {"step_s": 20.0},
+    params = InterceptParams.model_validate({"scan": {"step_s": 20.0},
                                     "porkchop": {"enabled": True, "t_man_points": 10, "t_intercept_points": 8}})
     out = run(params, Ctx())
     assert out.status == "succeeded", out.error
@@ -188,12 +187,24 @@ def test_kind_runs_both_methods_with_porkchop():
 def test_params_validation_names_the_rule(bad, field):
     from pydantic import ValidationError
     with pytest.raises(ValidationError) as exc:
-        Params.model_validate(bad)
+        InterceptParams.model_validate(bad)
     assert field in str(exc.value)
 
 
 def test_spec_and_problem_conversion():
-    assert SPEC.kind == "intercept" and SPEC.params_model is Params
-    prob = to_problem(Params())
-    assert prob.g0_mps2 == 9.80665 and prob.mu_m3_s2 == 398600.4418e9
-    assert math.isclose(prob.interceptor_orbit.nu, D(1.54)) and prob.target_orbit.e == 0.0
+    assert SPEC.kind == "intercept" and SPEC.params_model is InterceptParams
+    prob = to_problem(InterceptParams())
+    assert prob.scenario.g0_mps2 == 9.80665 and prob.scenario.mu_m3_s2 == 398600.4418e9
+    assert math.isclose(prob.scenario.interceptor_orbit.nu, D(1.54)) and prob.scenario.target_orbit.e == 0.0
+
+
+def test_the_api_defaults_are_the_paper_case():
+    # the defaults are printed in degrees at the edge, the case is held in radians once
+    sn = to_problem(InterceptParams()).scenario
+    for name in ("mass_kg", "propellant_kg", "isp_s", "max_thrust_n", "tf_s", "free_final_time", "tf_bounds_s",
+                 "mu_m3_s2", "g0_mps2"):
+        assert getattr(sn, name) == getattr(PAPER_003, name), name
+    for orbit in ("interceptor_orbit", "target_orbit"):
+        for el in ("a", "e", "i", "raan", "argp", "nu"):
+            assert math.isclose(getattr(getattr(sn, orbit), el), getattr(getattr(PAPER_003, orbit), el),
+                                rel_tol=1e-15, abs_tol=1e-15), (orbit, el)
