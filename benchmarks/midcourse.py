@@ -26,24 +26,18 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 from scipy.integrate import solve_ivp  # noqa: E402
 
-from app.kinds.midcourse import (  # noqa: E402
-    PAPER_ERROR,
-    PAPER_INITIAL,
-    PAPER_LAUNCH,
-    PAPER_TARGET,
-    PRESETS,
-    Params,
-    run,
-)
-from solvers.astro.j2 import LaunchFrame, j2_rhs  # noqa: E402
+from app.kinds.midcourse import PRESETS, run  # noqa: E402
+from app.kinds.midcourse_params import MidcourseParams  # noqa: E402
+from solvers import midcourse_cases as cases  # noqa: E402
+from solvers.astro.j2 import j2_rhs  # noqa: E402
 from solvers.astro.lambert import lambert  # noqa: E402
 from solvers.common import never_stop, noop_progress  # noqa: E402
 from solvers.midcourse import (  # noqa: E402
     CorrectionEvaluator,
     GASettings,
     MidcourseProblem,
-    _run_nsga2,
     repair_schedule,
+    run_nsga2,
 )
 
 NAIVE_GENERATIONS = 3
@@ -51,14 +45,7 @@ CHECK_SCHEDULES = 200
 
 
 def paper_problem(**kw) -> MidcourseProblem:
-    frame = LaunchFrame.from_geodetic(latitude_rad=np.radians(PAPER_LAUNCH["latitude_deg"]),
-                                      azimuth_rad=np.radians(PAPER_LAUNCH["azimuth_deg"]),
-                                      height_m=PAPER_LAUNCH["height_m"])
-    return MidcourseProblem(
-        r0=np.array(PAPER_INITIAL["position_m"]), v0=np.array(PAPER_INITIAL["velocity_mps"]),
-        r_target=np.array(PAPER_TARGET["position_m"]), v_target=np.array(PAPER_TARGET["velocity_mps"]),
-        position_error=np.array(PAPER_ERROR["position_m"]), velocity_error=np.array(PAPER_ERROR["velocity_mps"]),
-        frame=frame, mode="optimize", corrections=2, **kw)
+    return cases.paper_problem(mode="optimize", corrections=2, **kw)
 
 
 class NaiveEvaluator:
@@ -170,12 +157,12 @@ def main() -> None:
     # The baseline paper run: a few generations through the same NSGA-II, extrapolated.
     small = paper_problem(ga=GASettings(population=100, generations=NAIVE_GENERATIONS))
     t0 = time.perf_counter()
-    _run_nsga2(small, NaiveEvaluator(small), seed=1, on_progress=noop_progress, should_stop=never_stop)
+    run_nsga2(small, NaiveEvaluator(small), seed=1, on_progress=noop_progress, should_stop=never_stop)
     naive_run_s = (time.perf_counter() - t0) / NAIVE_GENERATIONS * 500
 
     # trajlab's paper run as a job: the kind's run() with the preset's parameters.
     t0 = time.perf_counter()
-    out = run(Params.model_validate(next(p for p in PRESETS if p.name == "upper-stage-two-corrections").params),
+    out = run(MidcourseParams.model_validate(next(p for p in PRESETS if p.name == "upper-stage-two-corrections").params),
               _Ctx())
     job_s = time.perf_counter() - t0
     res, solver = out.result, out.result["solver"]
@@ -184,7 +171,7 @@ def main() -> None:
 
     stock_ga_s = stock_nsga2_seconds(problem)
     t0 = time.perf_counter()
-    _run_nsga2(problem, cheap_objectives, seed=1, on_progress=noop_progress, should_stop=never_stop)
+    run_nsga2(problem, cheap_objectives, seed=1, on_progress=noop_progress, should_stop=never_stop)
     light_ga_s = time.perf_counter() - t0
 
     rows = [

@@ -277,10 +277,17 @@ def nondominated(f: np.ndarray) -> np.ndarray:
     return np.flatnonzero(~dominated)
 
 
-def _run_nsga2(problem: MidcourseProblem, ev: CorrectionEvaluator, *, seed: int,
-               on_progress: ProgressFn, should_stop: StopFn):
+def run_nsga2(problem: MidcourseProblem, ev: CorrectionEvaluator, *, seed: int,
+              on_progress: ProgressFn, should_stop: StopFn):
+    """NSGA-II over the correction times: ``(times, objectives)`` of the final non-dominated
+    set, the generations run, and whether it was cancelled.
+
+    ``ev(times (N, k)) -> objectives (N, 3)`` is any vectorized evaluator.  pymoo's
+    ``ask``/``tell`` loop runs here, so this loop owns termination: it stops after the
+    generation in which ``should_stop()`` turns true, with that population as the
+    partial result.  The same seed gives the same front.
+    """
     from pymoo.algorithms.moo.nsga2 import NSGA2
-    from pymoo.core.callback import Callback
     from pymoo.core.duplicate import DuplicateElimination
     from pymoo.core.problem import Problem
     from pymoo.core.repair import Repair
@@ -292,7 +299,6 @@ def _run_nsga2(problem: MidcourseProblem, ev: CorrectionEvaluator, *, seed: int,
         calc_crowding_distance,
     )
     from pymoo.operators.selection.tournament import TournamentSelection
-    from pymoo.optimize import minimize
 
     lo, hi = map(float, problem.time_bounds)
     k = problem.corrections
@@ -343,22 +349,6 @@ def _run_nsga2(problem: MidcourseProblem, ev: CorrectionEvaluator, *, seed: int,
             # No constraints, so pymoo's per-individual feasibility scan is wasted work.
             self.opt = self.pop[self.pop.get("rank") == 0]
 
-    class Monitor(Callback):
-        def __init__(self):
-            super().__init__()
-            self.cancelled = False
-            self.generation = 0
-
-        def notify(self, algorithm):
-            g = self.generation = int(algorithm.n_gen)
-            on_progress(min(g / ga.generations, 1.0), f"generation {g}/{ga.generations}")
-            if should_stop():
-                self.cancelled = True
-                algorithm.termination.force_termination = True
-                # pymoo reads the flag in update(), which ran before this callback:
-                # update again so the run stops now, not one generation later.
-                algorithm.termination.update(algorithm)
-
     algorithm = LightNSGA2(
         pop_size=ga.population,
         selection=TournamentSelection(func_comp=tournament),
@@ -370,13 +360,22 @@ def _run_nsga2(problem: MidcourseProblem, ev: CorrectionEvaluator, *, seed: int,
                                                                    filter_out_duplicates=True)),
         eliminate_duplicates=HashDuplicates() if ga.eliminate_duplicates else False,
     )
-    monitor = Monitor()
-    res = minimize(TimesProblem(), algorithm, ("n_gen", ga.generations), seed=seed,
-                   callback=monitor, verbose=False, save_history=False, copy_algorithm=False)
-    pop = res.algorithm.pop if res.algorithm is not None else algorithm.pop
-    x, f = pop.get("X"), pop.get("F")
+    algorithm.setup(TimesProblem(), termination=("n_gen", ga.generations), seed=seed, verbose=False,
+                    save_history=False)
+    generation, cancelled = 0, False
+    while algorithm.has_next():
+        offspring = algorithm.ask()
+        if offspring is not None:
+            algorithm.evaluator.eval(algorithm.problem, offspring, algorithm=algorithm)
+        algorithm.tell(infills=offspring)
+        generation = int(algorithm.n_gen) - 1   # tell() has moved the counter on to the next generation
+        on_progress(min(generation / ga.generations, 1.0), f"generation {generation}/{ga.generations}")
+        if should_stop():
+            cancelled = True
+            break
+    x, f = algorithm.pop.get("X"), algorithm.pop.get("F")
     idx = nondominated(f)
-    return x[idx], f[idx], monitor.generation, monitor.cancelled
+    return x[idx], f[idx], generation, cancelled
 
 
 def solve(problem: MidcourseProblem, *, initial_guess=None, on_progress: ProgressFn | None = None,
@@ -421,8 +420,8 @@ def solve(problem: MidcourseProblem, *, initial_guess=None, on_progress: Progres
         sol.evaluations = ev.evaluations
     else:
         sol.seed = 1 if seed is None else int(seed)
-        x, f, gens, cancelled = _run_nsga2(problem, ev, seed=sol.seed, on_progress=on_progress,
-                                           should_stop=should_stop)
+        x, f, gens, cancelled = run_nsga2(problem, ev, seed=sol.seed, on_progress=on_progress,
+                                          should_stop=should_stop)
         order = np.lexsort(f.T[::-1])           # by delta-v, then position error
         x, f = x[order], f[order]
         sol.pareto_times, sol.pareto_objectives = x, f

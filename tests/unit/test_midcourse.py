@@ -8,6 +8,7 @@ from hypothesis import strategies as st
 
 from solvers.astro.j2 import LaunchFrame
 from solvers.common import Outcome
+from solvers import midcourse_cases as cases
 from solvers.midcourse import (
     CorrectionEvaluator,
     Dispersion,
@@ -17,24 +18,12 @@ from solvers.midcourse import (
     solve,
 )
 
-FRAME = LaunchFrame.from_geodetic(latitude_rad=np.radians(28.3214),
-                                  azimuth_rad=np.radians(135.7033), height_m=1757.5)
+FRAME = cases.paper_frame()
 
 
 def paper_problem(**kw) -> MidcourseProblem:
     """Paper 002 Tables 1-2 in the spec's fitted launch frame."""
-    base = dict(
-        r0=np.array([4052278.09, -1153200.39, -103191.17]),
-        v0=np.array([8297.4213, -5571.1055, 398.5626]),
-        r_target=np.array([-14219839.24, -35409571.30, 667441.50]),
-        v_target=np.array([-1889.2754, 781.3548, -73.1586]),
-        tf=12900.0,
-        position_error=np.array([-100.0, 100.0, 100.0]),
-        velocity_error=np.array([10.0, -10.0, 10.0]),
-        frame=FRAME,
-    )
-    base.update(kw)
-    return MidcourseProblem(**base)
+    return cases.paper_problem(**kw)
 
 
 # Spec midcourse.md, Table 3, "reimpl." columns: (times, dV m/s, position error m, velocity error m/s).

@@ -4,14 +4,15 @@ import json
 import pytest
 from pydantic import ValidationError
 
-from app.kinds.midcourse import PRESETS, SPEC, Params, run
+from app.kinds.midcourse import PRESETS, SPEC, run
+from app.kinds.midcourse_params import MidcourseParams
 from app.params import deep_merge
 from tests.support import RecordingContext
 
 
 def preset(name, **overrides):
     p = next(p for p in PRESETS if p.name == name)
-    return Params.model_validate(deep_merge(p.params, overrides))
+    return MidcourseParams.model_validate(deep_merge(p.params, overrides))
 
 
 def test_spec_and_presets():
@@ -48,7 +49,7 @@ def test_spec_and_presets():
 ])
 def test_bad_params_name_the_rule(params, rule):
     with pytest.raises(ValidationError) as exc:
-        Params.model_validate(params)
+        MidcourseParams.model_validate(params)
     assert rule in str(exc.value)
 
 
@@ -111,3 +112,27 @@ def test_monte_carlo_optimize_reports_both_statistics_on_the_front():
         assert p["delta_v_mps"] == pytest.approx(p["mean"]["delta_v_mps"], rel=1e-12)
         assert set(p["percentile"]) == {"delta_v_mps", "position_error_m", "velocity_error_mps"}
         assert p["percentile"]["position_error_m"] > 0.0
+
+
+def test_paper_run_front_is_the_one_stored_before_the_ask_tell_loop():
+    # Paper 002's preset (100 x 500, seed 1) as recorded with pymoo's minimize() before NSGA-II
+    # moved to our own ask/tell loop (issue 12): the same seed must give the same front.
+    out = run(preset("upper-stage-two-corrections"), RecordingContext())
+    res = out.result
+    assert out.status == "succeeded" and res["generations"] == 500 and res["evaluations"] == 50000
+    front = res["pareto_front"]
+    assert len(front) == 100
+    assert res["hypervolume"] == pytest.approx(0.7216884176001721, rel=1e-12)
+    stored = [  # first, middle and last point: times (s), delta-v (m/s), position error (m), velocity error (m/s)
+        ([536.4199649511277, 536.4201121032946], 19.894102494692525, 23443.253537825938, 1.1346900787348142),
+        ([2412.463033050215, 12799.999998189074], 126.30546319451116, 0.11745393464927033, 80.45505732234867),
+        ([1055.5374330004747, 12799.99999758906], 392.2895832475895, 0.11727147621175918, 362.4720180434057),
+    ]
+    for p, (times, dv, pos, vel) in zip((front[0], front[50], front[-1]), stored):
+        assert p["times_s"] == pytest.approx(times, rel=1e-12)
+        assert (p["delta_v_mps"], p["position_error_m"], p["velocity_error_mps"]) == pytest.approx((dv, pos, vel),
+                                                                                                  rel=1e-9)
+    assert SPEC.key_numbers(res) == {"front_size": 100, "hypervolume": res["hypervolume"],
+                                     "min_delta_v_mps": front[0]["delta_v_mps"],
+                                     "min_position_error_m": min(p["position_error_m"] for p in front),
+                                     "generations": 500}
