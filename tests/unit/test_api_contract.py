@@ -111,3 +111,21 @@ def test_time_limits_come_from_each_kind_and_the_env_overrides_them(monkeypatch)
     monkeypatch.setenv("TRAJLAB_TIME_LIMIT_MIDCOURSE_S", "-1")
     with pytest.raises(ValueError):
         Settings()
+
+
+# Titles still shared while engineer E renames the reentry family's models (issue 12, part A:
+# reentry and robust_reentry both call theirs "Params"). Empty it, never add to it.
+PENDING_SCHEMA_RENAMES = {"Params"}
+
+
+def test_every_schema_has_a_unique_meaningful_title():
+    # pydantic falls back to module-qualified names (app__kinds__x__Params) when two models share a
+    # name: each model of the app has one name of its own instead.
+    schemas = create_app(Settings(database_url="sqlite://", broker_url="redis://127.0.0.1:1/0")).openapi()[
+        "components"]["schemas"]
+    titles = [s.get("title", name) for name, s in schemas.items()]
+    shared = sorted({t for t in titles if titles.count(t) > 1} - PENDING_SCHEMA_RENAMES)
+    assert shared == []
+    assert [name for name in schemas if "__" in name and name.split("__")[-1] not in PENDING_SCHEMA_RENAMES] == []
+    for kind in ("intercept", "midcourse"):
+        assert KINDS[kind].params_model.__name__ == f"{kind.capitalize()}Params"

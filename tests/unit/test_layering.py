@@ -1,0 +1,171 @@
+"""The layering rules a machine can check (issue 12): no module reaches into another's
+``_private`` names, and the import-linter contracts in ``pyproject.toml`` hold.
+
+Both checkers are also run on planted violations, so a check that silently passes
+everything cannot hide here.
+"""
+from __future__ import annotations
+
+import ast
+import shutil
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+PACKAGES = ("app", "worker", "solvers", "benchmarks")
+
+# (importing module, imported module) pairs still reaching into privates while the work
+# that removes them is under way. Empty it, never add to it: a new pair is a bug.
+ALLOWED_PRIVATE_REACH_INS: set[tuple[str, str]] = {
+    # engineer E, issue 12 part A: the reentry family's public edge replaces these
+    ("app.kinds.robust_reentry", "app.kinds.reentry"),   # _problem, _guess_from_result, _result
+    ("solvers.robust_reentry", "solvers.reentry"),       # _bounds
+    ("benchmarks.reentry", "solvers.transcription.nlp"),  # _CACHE: nlp.clear_cache() is the public way
+}
+
+
+def _module_name(path: Path, root: Path) -> str:
+    parts = list(path.relative_to(root).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+def _is_private(name: str) -> bool:
+    return name.startswith("_") and not (name.startswith("__") and name.endswith("__"))
+
+
+def _absolute(module: str | None, level: int, importer: str, is_package: bool) -> str:
+    if level == 0:
+        return module or ""
+    base = importer.split(".")
+    base = base[: len(base) - level + (1 if is_package else 0)]
+    return ".".join(base + ([module] if module else []))
+
+
+def _is_module(name: str, root: Path) -> bool:
+    rel = Path(*name.split("."))
+    return (root / rel).with_suffix(".py").is_file() or (root / rel / "__init__.py").is_file()
+
+
+def private_reach_ins(path: Path, root: Path) -> list[tuple[str, str, int]]:
+    """``(imported module, private name, line)`` for every ``from m import _x`` and every
+    ``m._x`` where ``m`` names an imported module, in one source file."""
+    importer = _module_name(path, root)
+    is_package = path.name == "__init__.py"
+    tree = ast.parse(path.read_text(), filename=str(path))
+    modules: dict[str, str] = {}   # local name -> module it is bound to
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                if alias.asname:
+                    modules[alias.asname] = alias.name
+                else:
+                    modules[alias.name.split(".")[0]] = alias.name.split(".")[0]
+        elif isinstance(node, ast.ImportFrom):
+            source = _absolute(node.module, node.level, importer, is_package)
+            for alias in node.names:
+                if _is_private(alias.name):
+                    found.append((source, alias.name, node.lineno))
+                elif _is_module(f"{source}.{alias.name}", root):
+                    modules[alias.asname or alias.name] = f"{source}.{alias.name}"
+    for node in ast.walk(tree):
+        if (isinstance(node, ast.Attribute) and _is_private(node.attr) and isinstance(node.value, ast.Name)
+                and node.value.id in modules):
+            found.append((modules[node.value.id], node.attr, node.lineno))
+    return [f for f in found if f[0] != importer]
+
+
+def _all_reach_ins(root: Path, packages) -> list[str]:
+    out = []
+    for pkg in packages:
+        for path in sorted((root / pkg).rglob("*.py")):
+            importer = _module_name(path, root)
+            for module, name, line in private_reach_ins(path, root):
+                if (importer, module) not in ALLOWED_PRIVATE_REACH_INS:
+                    out.append(f"{path.relative_to(root)}:{line}: {module}.{name}")
+    return out
+
+
+def test_no_module_imports_a_private_name_of_another():
+    assert _all_reach_ins(ROOT, PACKAGES) == []
+
+
+def test_the_private_name_checker_catches_planted_reach_ins(tmp_path):
+    pkg = tmp_path / "pkg"
+    (pkg / "sub").mkdir(parents=True)
+    for p in (pkg / "__init__.py", pkg / "sub" / "__init__.py"):
+        p.write_text("")
+    (pkg / "lib.py").write_text("_hidden = 1\n__version__ = '1'\nshown = 2\n")
+    (pkg / "sub" / "mod.py").write_text("def _helper():\n    return 1\n")
+    (pkg / "user.py").write_text(textwrap.dedent("""
+        import pkg.lib as lib
+        from pkg import lib as lib2
+        from pkg.lib import _hidden, shown, __version__
+        from .sub import mod
+        from .sub.mod import _helper as h
+
+
+        def f():
+            return lib._hidden + lib2._hidden + mod._helper() + lib.shown + lib.__doc__.count("")
+    """))
+    (pkg / "clean.py").write_text("from pkg.lib import shown\n\n\ndef _mine():\n    return _mine.__name__\n")
+    found = sorted((m, n) for m, n, _ in private_reach_ins(pkg / "user.py", tmp_path))
+    assert found == [("pkg.lib", "_hidden"), ("pkg.lib", "_hidden"), ("pkg.lib", "_hidden"),
+                     ("pkg.sub.mod", "_helper"), ("pkg.sub.mod", "_helper")]
+    assert private_reach_ins(pkg / "clean.py", tmp_path) == []
+    assert len(_all_reach_ins(tmp_path, ["pkg"])) == 5
+
+
+def _lint_imports(cwd: Path) -> subprocess.CompletedProcess:
+    exe = shutil.which("lint-imports", path=str(Path(sys.executable).parent))
+    assert exe, "import-linter is not installed (pip install -e '.[test]')"
+    return subprocess.run([exe, "--no-cache"], cwd=cwd, capture_output=True, text=True, timeout=300)
+
+
+def test_the_import_contracts_hold():
+    run = _lint_imports(ROOT)
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert "broken" not in run.stdout.lower().split("contracts:")[-1].replace("0 broken", ""), run.stdout
+
+
+@pytest.mark.parametrize("planted, contract", [
+    ("import fakeapp.routes\n", "solvers never imports the service"),
+    ("", "kinds are independent"),
+])
+def test_the_import_contracts_fail_on_a_planted_violation(tmp_path, planted, contract):
+    # A copy of the shape of our contracts over a tmp project with one forbidden import.
+    for pkg in ("fakesolvers", "fakeapp", "fakeapp/kinds"):
+        (tmp_path / pkg).mkdir(parents=True, exist_ok=True)
+        (tmp_path / pkg / "__init__.py").write_text("")
+    (tmp_path / "fakeapp" / "routes.py").write_text("")
+    (tmp_path / "fakesolvers" / "core.py").write_text(planted or "import math\n")
+    (tmp_path / "fakeapp" / "kinds" / "one.py").write_text("")
+    (tmp_path / "fakeapp" / "kinds" / "two.py").write_text("" if planted else "from fakeapp.kinds import one\n")
+    (tmp_path / "pyproject.toml").write_text(textwrap.dedent(f"""
+        [tool.importlinter]
+        root_packages = ["fakesolvers", "fakeapp"]
+
+        [[tool.importlinter.contracts]]
+        name = "solvers never imports the service"
+        type = "forbidden"
+        source_modules = ["fakesolvers"]
+        forbidden_modules = ["fakeapp"]
+
+        [[tool.importlinter.contracts]]
+        name = "kinds are independent"
+        type = "independence"
+        modules = ["fakeapp.kinds.one", "fakeapp.kinds.two"]
+    """))
+    env_path = f"{tmp_path}"
+    run = subprocess.run([shutil.which("lint-imports", path=str(Path(sys.executable).parent)), "--no-cache"],
+                         cwd=tmp_path, capture_output=True, text=True, timeout=120,
+                         env={"PYTHONPATH": env_path, "PATH": str(Path(sys.executable).parent)})
+    assert run.returncode != 0, run.stdout
+    assert f"{contract} BROKEN" in " ".join(run.stdout.split()), run.stdout
+    assert "1 broken" in run.stdout
