@@ -21,10 +21,11 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 from scipy.optimize import brentq  # noqa: E402
 
+from solvers.astro.j2 import MU_EARTH  # noqa: E402
 from solvers.astro.kepler import propagate, stumpff  # noqa: E402
 from solvers.astro.lambert import lambert  # noqa: E402
 
-MU = 398600.4418e9
+MU = MU_EARTH
 BATCH = 10_000
 REPEATS = 7
 
