@@ -7,11 +7,11 @@ paper gives neither the launch site nor R0), and Table 3's correction schedules.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
-import numpy as np
-
-from solvers.astro.j2 import LaunchFrame
-from solvers.midcourse import MidcourseProblem
+if TYPE_CHECKING:   # the API edge reads the numbers here without loading the numerics
+    from solvers.astro.j2 import LaunchFrame
+    from solvers.midcourse import MidcourseProblem
 
 LAUNCH_LATITUDE_RAD = math.radians(28.3214)     # geodetic B0, fitted
 LAUNCH_AZIMUTH_RAD = math.radians(135.7033)     # A0, fitted
@@ -30,12 +30,18 @@ TABLE3_SCHEDULES_S = [[], [6000.0], [8000.0], [3000.0, 8000.0], [1000.0, 8000.0]
 
 
 def paper_frame() -> LaunchFrame:
+    from solvers.astro.j2 import LaunchFrame
+
     return LaunchFrame.from_geodetic(latitude_rad=LAUNCH_LATITUDE_RAD, azimuth_rad=LAUNCH_AZIMUTH_RAD,
                                      height_m=LAUNCH_HEIGHT_M)
 
 
 def paper_problem(**overrides) -> MidcourseProblem:
     """Paper 002's transfer with its initial error; ``overrides`` replace any field (mode, schedules, ga, ...)."""
+    import numpy as np
+
+    from solvers.midcourse import MidcourseProblem
+
     base = dict(r0=np.array(R0_M), v0=np.array(V0_MPS), r_target=np.array(R_TARGET_M),
                 v_target=np.array(V_TARGET_MPS), tf=TF_S, position_error=np.array(POSITION_ERROR_M),
                 velocity_error=np.array(VELOCITY_ERROR_MPS), frame=paper_frame())

@@ -11,8 +11,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from app.kinds.base import JobContext, KindSpec, Preset, RunOutcome, outcome_from_status, warm_start_from_job
 from app.kinds.intercept_params import InterceptParams
 from app.kinds.intercept_results import comparison, finite_result, impulsive_result, key_numbers
@@ -87,6 +85,8 @@ def to_problem(params: InterceptParams):
 
 def trajectory_guess(stored: dict):
     """A finite-thrust warm start from a stored intercept result."""
+    import numpy as np
+
     from solvers.intercept_thrust import TrajectoryGuess
 
     tr = stored["finite_thrust"]["trajectory"]

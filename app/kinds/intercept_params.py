@@ -10,7 +10,7 @@ from typing import Literal
 from pydantic import Field, field_validator, model_validator
 
 from app.kinds.base import StrictModel
-from solvers.astro.j2 import MU_EARTH
+from solvers.astro.earth import MU_EARTH
 from solvers.constants import G0_MPS2
 
 MAX_SCAN_POINTS = 2_000_000

@@ -5,8 +5,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from app.kinds.base import json_float, json_value
 from app.kinds.intercept_params import InterceptParams
 
@@ -61,6 +59,8 @@ def impulsive_result(sol, params: InterceptParams) -> dict:
 
 def finite_result(sol, params: InterceptParams) -> dict:
     """The ``finite_thrust`` block of the result."""
+    import numpy as np
+
     s = sol.status
     out = {"status": s.outcome.value, "message": s.message, "warm_start": sol.warm_start}
     if sol.t_s.size:

@@ -11,7 +11,7 @@ from pydantic import Field, field_validator, model_validator
 
 from app.kinds.base import StrictModel
 from solvers import midcourse_cases as cases
-from solvers.astro.j2 import MU_EARTH
+from solvers.astro.earth import AE_EARTH, J2_EARTH, MU_EARTH
 
 MAX_POPULATION = 1000
 MAX_GENERATIONS = 5000
@@ -83,8 +83,8 @@ class MidcourseGravity(StrictModel):
 
     mu_m3_s2: float = Field(MU_EARTH, gt=0, description="Earth's gravitational parameter",
                             examples=[MU_EARTH])
-    j2: float = Field(1.08263e-3, ge=0, le=0.01, description="J2 zonal coefficient", examples=[1.08263e-3])
-    ae_m: float = Field(6378137.0, gt=0, description="Equatorial radius used with J2", examples=[6378137.0])
+    j2: float = Field(J2_EARTH, ge=0, le=0.01, description="J2 zonal coefficient", examples=[J2_EARTH])
+    ae_m: float = Field(AE_EARTH, gt=0, description="Equatorial radius used with J2", examples=[AE_EARTH])
 
 
 class MidcourseHypervolumeReference(StrictModel):

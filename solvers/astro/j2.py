@@ -32,10 +32,11 @@ from typing import Callable
 
 import numpy as np
 
-MU_EARTH = 3.986004418e14        # m^3/s^2, paper 002 / WGS-84
-J2_EARTH = 1.08263e-3            # paper 002
-AE_EARTH = 6378137.0             # m, WGS-84 semi-major axis
-WGS84_FLATTENING = 1.0 / 298.257223563
+# Defined in solvers.astro.earth; importable from here too (solvers.astro.j2.MU_EARTH).
+from solvers.astro.earth import AE_EARTH, J2_EARTH, MU_EARTH, WGS84_FLATTENING
+
+__all__ = ["AE_EARTH", "J2_EARTH", "MU_EARTH", "WGS84_FLATTENING", "GravityConstants", "J2Propagator",
+           "LaunchFrame", "j2_acceleration", "j2_rhs"]
 
 
 @dataclass(frozen=True)

@@ -17,6 +17,8 @@ MU = 398600.4418e9
 def client():
     app = FastAPI()
     app.include_router(router)
+    # the route reads the key check's settings from the app, as create_app() sets them (auth off in tests)
+    app.state.settings = get_settings()
     return TestClient(app)
 
 

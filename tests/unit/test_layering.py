@@ -169,3 +169,12 @@ def test_the_import_contracts_fail_on_a_planted_violation(tmp_path, planted, con
     assert run.returncode != 0, run.stdout
     assert f"{contract} BROKEN" in " ".join(run.stdout.split()), run.stdout
     assert "1 broken" in run.stdout
+
+
+def test_the_api_edge_loads_no_solver_engine():
+    # Kinds import their solvers inside run(): the API process never pays for CasADi, heyoka or pymoo.
+    code = ("import sys, app.main, app.kinds, app.schemas; "
+            "print(sorted(m for m in ('casadi', 'heyoka', 'pymoo') if m in sys.modules))")
+    run = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.strip() == "[]"
