@@ -154,6 +154,9 @@ def test_kind_runs_both_methods_with_porkchop():
     pc = res["impulsive"]["porkchop"]
     assert len(pc["delta_v_mps"]) == 10 and len(pc["delta_v_mps"][0]) == 8
     assert pc["best"]["delta_v_mps"] > 0
+    # a maneuver after the interception has no transfer: null (json_float), not 0.0 or "nan"
+    assert pc["delta_v_mps"][-1][0] is None
+    assert all(v is None or v > 0 for row in pc["delta_v_mps"] for v in row)
     ft = res["finite_thrust"]
     assert ft["status"] == "optimal"
     assert abs(ft["fuel_kg"] - 270.84) <= 1.0                       # spec reference, 1 kg
@@ -169,6 +172,9 @@ def test_kind_runs_both_methods_with_porkchop():
     # 271.42 kg against the impulse's 271.39 kg
     assert 0.0 < rows["finite_thrust"]["fuel_kg"] - rows["impulsive"]["fuel_kg"] < 0.1
     assert any("233.5" in n for n in res["notes"])
+    key = SPEC.key_numbers(res)
+    assert key["finite_thrust.fuel_kg"] == ft["fuel_kg"] and key["impulsive.fuel_kg"] == rows["impulsive"]["fuel_kg"]
+    assert key["finite_thrust.tf_s"] == pytest.approx(8080.5) and key["impulsive.delta_v_mps"] > 2000.0
 
 
 @pytest.mark.parametrize("bad,field", [
