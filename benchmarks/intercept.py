@@ -95,7 +95,7 @@ def _shooting_guess(problem: FiniteThrustProblem, guess: ImpulsiveGuess):
     """The impulsive optimum spread over the intervals it overlaps (throttle = overlap fraction,
     so the guess burns the impulse's propellant), states propagated under those controls."""
     s = nondimensionalise(problem)
-    plan = plan_impulsive(guess, problem, s, s.tf)
+    plan = plan_impulsive(guess, problem=problem, s=s, tf=s.tf)
     t = np.linspace(0.0, s.tf, MS_INTERVALS + 1)
     u = np.zeros((rm.NU, MS_INTERVALS))
     for a, b in plan.windows:
@@ -118,7 +118,7 @@ def _repropagate_constant(problem: FiniteThrustProblem, s, x: np.ndarray, u: np.
     through it unchanged.  Only the last state column is read (for the propellant).
     """
     mesh = Mesh.uniform(MS_INTERVALS, 3)
-    return verify_controls(problem, s, mesh, np.repeat(x[:, 1:], 3, axis=1), np.repeat(u, 3, axis=1), tf)
+    return verify_controls(problem, s=s, mesh=mesh, X=np.repeat(x[:, 1:], 3, axis=1), U=np.repeat(u, 3, axis=1), tf=tf)
 
 
 def solve_multiple_shooting(problem: FiniteThrustProblem, guess: ImpulsiveGuess) -> dict:

@@ -16,6 +16,7 @@ from solvers.transcription.nlp import NLPSolver
 # ----------------------------------------------------------------------------- NLP
 
 def hill_dynamics_function() -> ca.Function:
+    """The nondimensional Hill dynamics ``f(x, u, [tmax, c])`` as a CasADi function."""
     x = ca.SX.sym("x", rm.NX)
     u = ca.SX.sym("u", rm.NU)
     p = ca.SX.sym("p", 2)  # tmax, c (nondimensional)
@@ -23,6 +24,7 @@ def hill_dynamics_function() -> ca.Function:
 
 
 def build_nlp(layout: Layout, max_iter: int) -> NLPSolver:
+    """The collocation NLP of one layout (maximise final mass); cached by the caller per structure."""
     N, A, S = layout.nodes, len(layout.arcs), layout.segments
     K = S * N
     X = ca.SX.sym("X", rm.NX, K)
@@ -58,6 +60,7 @@ def build_nlp(layout: Layout, max_iter: int) -> NLPSolver:
 
 
 def nlp_bounds(layout: Layout, s: Scaled, free_tf: bool):
+    """``(lbx, ubx, lbg, ubg)`` of the NLP: fixed initial state, zero final relative position, tf and arc bounds."""
     K = layout.segments * layout.nodes
     big = 50.0
     lbX = np.tile(np.array([-big] * 6 + [s.m_dry])[:, None], (1, K))
@@ -79,6 +82,7 @@ def nlp_bounds(layout: Layout, s: Scaled, free_tf: bool):
 
 
 def pack_variables(layout: Layout, X, U, tf, sigma) -> np.ndarray:
+    """The NLP decision vector from states, controls, tf and arc fractions."""
     thr = layout.throttle()
     dmask = ~(thr == 0.0)
     fmask = np.isnan(thr)
@@ -87,6 +91,7 @@ def pack_variables(layout: Layout, X, U, tf, sigma) -> np.ndarray:
 
 
 def unpack_variables(layout: Layout, w: np.ndarray):
+    """``(X, U, tf, sigma, index of tf)`` from the NLP decision vector."""
     K = layout.segments * layout.nodes
     thr = layout.throttle()
     dmask = ~(thr == 0.0)

@@ -14,7 +14,7 @@ from solvers.transcription.lgl import Mesh, lagrange_matrix, lgl_nodes
 
 # ----------------------------------------------------------------------------- analysis
 
-def segment_defects(s: Scaled, mesh: Mesh, X, U, tf) -> np.ndarray:
+def segment_defects(s: Scaled, *, mesh: Mesh, X, U, tf) -> np.ndarray:
     """Re-propagate every segment from its first node (all segments stacked in one
     ODE in the segment-normalised time) and return the end-state mismatch (7, S)."""
     S, N = mesh.segments, mesh.nodes
@@ -33,7 +33,7 @@ def segment_defects(s: Scaled, mesh: Mesh, X, U, tf) -> np.ndarray:
     return sol.y[:, -1].reshape((rm.NX, S)) - Xs[:, :, -1]
 
 
-def verify_controls(problem: FiniteThrustProblem, s: Scaled, mesh: Mesh, X, U, tf) -> dict:
+def verify_controls(problem: FiniteThrustProblem, *, s: Scaled, mesh: Mesh, X, U, tf) -> dict:
     """Inertial two-body re-propagation of both bodies under the interpolated controls."""
     L, Tm = s.sc.length_m, s.sc.time_s
     V = L / Tm
@@ -78,8 +78,11 @@ def verify_controls(problem: FiniteThrustProblem, s: Scaled, mesh: Mesh, X, U, t
     }
 
 
-def optimality_evidence(s: Scaled, layout: Layout, mesh: Mesh, X, U, tf, lam: np.ndarray,
-                lam_tf: float, free_tf: bool) -> tuple[dict, dict]:
+def optimality_evidence(s: Scaled, *, layout: Layout, mesh: Mesh, X, U, tf, lam: np.ndarray,
+                        lam_tf: float, free_tf: bool) -> tuple[dict, dict]:
+    """Hamiltonian constancy and value, switching-function agreement with the thrust and the
+    thrust-primer alignment, from the costates ``lam`` (see the package docstring); and the
+    Hamiltonian and switching function along the nodes."""
     S, N = mesh.segments, mesh.nodes
     thrust = s.tmax * U[0] * U[1:]
     terms = lam * rm.dynamics_numpy(X, thrust, s.tmax * U[0] / s.c)
@@ -122,6 +125,7 @@ def optimality_evidence(s: Scaled, layout: Layout, mesh: Mesh, X, U, tf, lam: np
 
 
 def arc_table(layout: Layout, mesh: Mesh, X, tf_s: float, problem: FiniteThrustProblem) -> list[dict]:
+    """One row per arc: kind, start, end, duration, segments and the propellant it burns."""
     out, k = [], 0
     b = np.asarray(mesh.boundaries) * tf_s
     N = layout.nodes

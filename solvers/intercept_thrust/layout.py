@@ -20,6 +20,8 @@ ARC_KINDS = ("coast", "burn", "free")
 
 @dataclass(frozen=True)
 class Arc:
+    """A stretch of the trajectory with one thrust law: coast, burn (full thrust) or free (throttle)."""
+
     kind: str        # "coast", "burn" or "free"
     segments: int
 
@@ -69,6 +71,7 @@ class Layout:
 
 
 def layout_for(plan: Plan, opts: MeshOptions, s: Scaled) -> Layout:
+    """The arcs of a plan's burn windows (or the paper's free-throttle segments), segment lengths from ``opts``."""
     if opts.structure == "free_throttle":
         return Layout((Arc("free", opts.segments),), (1.0,), opts.nodes, False, "differential")
     arcs, sigma, t = [], [], 0.0

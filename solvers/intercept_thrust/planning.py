@@ -29,7 +29,8 @@ class Plan:
         return np.any([(t >= a) & (t <= b) for a, b in self.windows], axis=0) if self.windows else np.zeros(t.size, bool)
 
 
-def plan_impulsive(guess: ImpulsiveGuess, problem: FiniteThrustProblem, s: Scaled, tf: float) -> Plan:
+def plan_impulsive(guess: ImpulsiveGuess, *, problem: FiniteThrustProblem, s: Scaled, tf: float) -> Plan:
+    """One full-thrust burn spending the impulse's propellant, centred on its time, along its direction."""
     dv = np.asarray(guess.delta_v_mps, float)
     dvn = float(np.linalg.norm(dv))
     fuel = problem.scenario.mass_kg * (1.0 - np.exp(-dvn / problem.scenario.exhaust_speed_mps))
@@ -50,6 +51,7 @@ def plan_impulsive(guess: ImpulsiveGuess, problem: FiniteThrustProblem, s: Scale
 
 
 def plan_trajectory(guess: TrajectoryGuess, problem: FiniteThrustProblem, s: Scaled) -> Plan:
+    """A stored trajectory's burns (thrust above half the maximum), directions and states."""
     t, idx = np.unique(np.asarray(guess.t_s, float) / s.sc.time_s, return_index=True)
     scale = np.array([s.sc.length_m] * 3 + [s.sc.speed_mps] * 3 + [problem.scenario.mass_kg])[:, None]
     st = np.asarray(guess.states, float)[:, idx] / scale
@@ -75,7 +77,7 @@ def plan_trajectory(guess: TrajectoryGuess, problem: FiniteThrustProblem, s: Sca
     return Plan(windows, direction, float(t[-1]), lambda tq: np.stack([np.interp(tq, t, row) for row in st]))
 
 
-def propagate_hill(s: Scaled, t_eval: np.ndarray, control, breaks=()) -> np.ndarray:
+def propagate_hill(s: Scaled, t_eval: np.ndarray, control, *, breaks=()) -> np.ndarray:
     """Integrate the nondim Hill dynamics under ``control(t) -> (u, d)``; states at
     ``t_eval``.  ``breaks``: control switch times, where the integration restarts
     so no step straddles a discontinuity."""
@@ -98,6 +100,7 @@ def propagate_hill(s: Scaled, t_eval: np.ndarray, control, breaks=()) -> np.ndar
 
 
 def initial_values(plan: Plan, layout: Layout, s: Scaled):
+    """``(X, U, sigma, tf)`` on the layout's nodes: the plan's controls and its (given or propagated) states."""
     tf = plan.tf
     mesh = layout.mesh()
     t = mesh.node_fractions().ravel() * tf

@@ -66,6 +66,8 @@ class TrajectoryGuess:
 
 @dataclass
 class FiniteThrustSolution:
+    """What the finite-thrust method returns: SI states in the Hill frame, arcs, burns, checks."""
+
     status: SolveStatus
     tf_s: float = float("nan")
     final_mass_kg: float = float("nan")

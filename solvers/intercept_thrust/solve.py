@@ -34,7 +34,7 @@ def solve_finite_thrust(problem: FiniteThrustProblem, *, initial_guess: Impulsiv
     s = nondimensionalise(problem)
     opts = problem.mesh
     if isinstance(initial_guess, ImpulsiveGuess):
-        plan = plan_impulsive(initial_guess, problem, s, s.tf)
+        plan = plan_impulsive(initial_guess, problem=problem, s=s, tf=s.tf)
     elif isinstance(initial_guess, TrajectoryGuess):
         plan = plan_trajectory(initial_guess, problem, s)
         plan.tf = float(np.clip(plan.tf, s.tf_lo, s.tf_hi)) if problem.scenario.free_final_time else s.tf
@@ -73,7 +73,7 @@ def solve_finite_thrust(problem: FiniteThrustProblem, *, initial_guess: Impulsiv
         history.append(entry)
         if res.status.outcome is Outcome.CANCELLED:
             break
-        verification = verify_controls(problem, s, mesh, X, U, tf)
+        verification = verify_controls(problem, s=s, mesh=mesh, X=X, U=U, tf=tf)
         entry["miss_distance_m"] = verification["miss_distance_m"]
         if on_progress is not None:
             on_progress(0.9 * (r + 1) / rounds, f"round {r + 1}: {layout.segments} segments, "
@@ -104,7 +104,7 @@ def solve_finite_thrust(problem: FiniteThrustProblem, *, initial_guess: Impulsiv
             entry["next"] = "stopped: refinement did not halve the miss"
             break
         if nxt is None and verification["miss_distance_m"] > opts.miss_tolerance_m:
-            d = segment_defects(s, mesh, X, U, tf)
+            d = segment_defects(s, mesh=mesh, X=X, U=U, tf=tf)
             pos = np.linalg.norm(d[:3], axis=0) * s.sc.length_m
             entry["max_segment_defect_m"] = float(np.max(pos))
             nxt = refined_layout(layout, pos, opts)
@@ -154,8 +154,9 @@ def solve_finite_thrust(problem: FiniteThrustProblem, *, initial_guess: Impulsiv
     else:
         sol.burns = burns_from_throttle(t, U[0], mesh, problem)
     if lam is not None:
-        sol.optimality, sol.optimality_history = optimality_evidence(s, layout, mesh, X, U, tf, lam, float(res.lam_x[i_tf]),
-                                                problem.scenario.free_final_time)
+        sol.optimality, sol.optimality_history = optimality_evidence(
+            s, layout=layout, mesh=mesh, X=X, U=U, tf=tf, lam=lam, lam_tf=float(res.lam_x[i_tf]),
+            free_tf=problem.scenario.free_final_time)
     if status.ok and verification and verification["miss_distance_m"] > opts.miss_tolerance_m:
         # the NLP converged, but its trajectory is not what the controls fly:
         # not an answer to hand out as optimal
