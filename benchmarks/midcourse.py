@@ -53,7 +53,7 @@ class NaiveEvaluator:
 
     def __init__(self, problem: MidcourseProblem):
         f = problem.frame
-        self.w, self.c, self.tf = f.spin_axis, problem.constants, problem.tf
+        self.w, self.c, self.tf = f.spin_axis, problem.constants, problem.tf_s
         self.y0 = np.r_[problem.r0 + f.r0 + problem.position_error, problem.v0 + problem.velocity_error]
         self.r_t, self.v_t = problem.r_target + f.r0, problem.v_target
         self.evaluations = 0

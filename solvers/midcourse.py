@@ -83,7 +83,7 @@ class MidcourseProblem:
     v0: np.ndarray
     r_target: np.ndarray
     v_target: np.ndarray
-    tf: float = 12900.0
+    tf_s: float = 12900.0                  # the target is reached at tf_s
     position_error: np.ndarray = field(default_factory=lambda: np.zeros(3))
     velocity_error: np.ndarray = field(default_factory=lambda: np.zeros(3))
     frame: LaunchFrame = field(default_factory=LaunchFrame.eci)
@@ -138,7 +138,7 @@ class CorrectionEvaluator:
         self.p = problem
         self.frame = problem.frame
         self.mu = problem.constants.mu
-        self.tf = float(problem.tf)
+        self.tf = float(problem.tf_s)
         self.prop = J2Propagator(problem.frame.spin_axis, problem.constants, problem.tol)
         r0 = np.asarray(problem.r0, float) + self.frame.r0
         v0 = np.asarray(problem.v0, float)

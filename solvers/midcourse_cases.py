@@ -43,6 +43,6 @@ def paper_problem(**overrides) -> MidcourseProblem:
     from solvers.midcourse import MidcourseProblem
 
     base = dict(r0=np.array(R0_M), v0=np.array(V0_MPS), r_target=np.array(R_TARGET_M),
-                v_target=np.array(V_TARGET_MPS), tf=TF_S, position_error=np.array(POSITION_ERROR_M),
+                v_target=np.array(V_TARGET_MPS), tf_s=TF_S, position_error=np.array(POSITION_ERROR_M),
                 velocity_error=np.array(VELOCITY_ERROR_MPS), frame=paper_frame())
     return MidcourseProblem(**{**base, **overrides})

@@ -89,7 +89,7 @@ def to_problem(params: MidcourseParams):
     return MidcourseProblem(
         r0=np.array(params.initial.position_m), v0=np.array(params.initial.velocity_mps),
         r_target=np.array(params.target.position_m), v_target=np.array(params.target.velocity_mps),
-        tf=params.tf_s,
+        tf_s=params.tf_s,
         position_error=np.array(params.initial_error.position_m),
         velocity_error=np.array(params.initial_error.velocity_mps),
         frame=frame, constants=GravityConstants(mu=g.mu_m3_s2, j2=g.j2, ae=g.ae_m),
