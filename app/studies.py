@@ -5,7 +5,9 @@ the mode; its points are rows of ``jobs`` with ``study_id``/``study_index``, so
 progress, cancel, the reaper and results hold for them as for any job.
 
 * ``independent``: every point is created and published at once; the workers
-  that are free run them.
+  that are free run them, each from its own cold start.  Once all are final, a
+  failed point is retried, warm-started from a solved neighbour (once per
+  neighbour); one that still fails is an answer (e.g. infeasible).
 * ``continuation``: points run one at a time in sweep order, each warm-started
   from the nearest point already solved (the kind's ``from_job`` field).  After
   the forward walk, the walk comes back from the other end and retries each
@@ -25,8 +27,8 @@ import numpy as np
 from sqlalchemy import select
 
 from app.db import Database
-from app.models import FINAL_STATUSES, Job, Study, utcnow
-from app.summary import WARM_START_FIELD, key_numbers
+from app.models import FINAL_STATUSES, Job, JobResult, Study, utcnow
+from app.summary import FIXED_OBJECTIVE, WARM_START_FIELD, key_numbers
 
 MAX_POINTS = 200
 
@@ -50,23 +52,29 @@ def sweep_paths(sweep: dict) -> list[str]:
     return [path] if isinstance(path, str) else list(path)
 
 
+def _step(node, part: str, path: str):
+    if isinstance(node, list) and part.isdigit() and int(part) < len(node):
+        return int(part)  # an element of a list parameter, e.g. tf_bounds_s.1
+    if isinstance(node, dict) and part in node:
+        return part
+    raise KeyError(f"{path}: no parameter {part}")
+
+
 def set_path(params: dict, path: str, value) -> None:
-    """Set a dotted path inside ``params``; every group on the way must already exist."""
+    """Set a dotted path inside ``params`` (list elements by index); every step must already exist."""
     node = params
     *groups, leaf = path.split(".")
     for g in groups:
-        if not isinstance(node.get(g), dict):
+        node = node[_step(node, g, path)]
+        if not isinstance(node, (dict, list)):
             raise KeyError(f"{path}: {g} is not a parameter group")
-        node = node[g]
-    if leaf not in node:
-        raise KeyError(f"{path}: no parameter {leaf}")
-    node[leaf] = value
+    node[_step(node, leaf, path)] = value
 
 
 def get_path(params: dict, path: str):
     node = params
     for part in path.split("."):
-        node = node[part]
+        node = node[_step(node, part, path)]
     return node
 
 
@@ -128,6 +136,33 @@ def latest_by_index(jobs_: list[Job]) -> dict[int, Job]:
     return out
 
 
+def objective_values(session, kind: str, jobs_: list[Job]) -> dict[str, float]:
+    """The fixed-direction objective (FIXED_OBJECTIVE) of each succeeded job, signed so that lower is better."""
+    if kind not in FIXED_OBJECTIVE:
+        return {}
+    path, sense = FIXED_OBJECTIVE[kind]
+    out = {}
+    for job in jobs_:
+        row = session.get(JobResult, job.id) if job.status == "succeeded" else None
+        try:
+            value = float(get_path(row.data, path)) if row is not None else None
+        except (KeyError, TypeError, ValueError):
+            value = None
+        if value is not None:
+            out[job.id] = value if sense == "min" else -value
+    return out
+
+
+def best_by_index(jobs_: list[Job], values: dict[str, float]) -> dict[int, Job]:
+    """Each point's job to report: the best succeeded one by the fixed objective, else the last."""
+    out = latest_by_index(jobs_)
+    for job in jobs_:
+        cur = out[job.study_index]
+        if job.id in values and (cur.id not in values or values[job.id] < values[cur.id]):
+            out[job.study_index] = job
+    return out
+
+
 def _warm(study: Study, params: dict, source: Job | None) -> dict:
     params = copy.deepcopy(params)
     field = WARM_START_FIELD.get(study.kind)
@@ -144,12 +179,19 @@ def advance(db: Database, study_id: str) -> list[Job]:
             return []
         rows = list(s.scalars(select(Job).where(Job.study_id == study_id).order_by(Job.created_at, Job.id)))
         latest = latest_by_index(rows)
-        if study.cancel_requested or (study.mode == "independent" and len(latest) == len(study.points)
-                                      and all(j.status in FINAL_STATUSES for j in latest.values())):
+        if study.cancel_requested:
             _close(study, latest)
             return []
-        if study.mode != "continuation":
-            return []
+        if study.mode == "independent":
+            if len(latest) < len(study.points) or any(j.status not in FINAL_STATUSES for j in latest.values()):
+                return []
+            retries = _retries_from_neighbours(study, rows, latest) or _polish(study, rows,
+                                                                                 objective_values(s, study.kind, rows))
+            if not retries:
+                _close(study, latest)
+            for job in retries:
+                s.add(job)
+            return retries
         if any(j.status not in FINAL_STATUSES for j in latest.values()):
             return []  # a point is queued or running: wait for it
         n = len(study.points)
@@ -186,6 +228,45 @@ def advance(db: Database, study_id: str) -> list[Job]:
             s.add(job)
             study.walk = walk
             return [job]
+
+
+def _retries_from_neighbours(study: Study, rows: list[Job], latest: dict[int, Job]) -> list[Job]:
+    """Independent study, every point final: each failed point once more, warm-started from a solved
+    neighbour it was not yet tried from.  A point that still fails is an answer (e.g. infeasible)."""
+    field = WARM_START_FIELD.get(study.kind)
+    if field is None:
+        return []
+    succeeded = {i: j for i, j in latest.items() if j.status == "succeeded"}
+    retries = []
+    for i, job in sorted(latest.items()):
+        if job.status != "failed":
+            continue
+        tried = {_from_job(j.params, field) for j in rows if j.study_index == i}
+        source = next((succeeded[k] for k in (i - 1, i + 1) if k in succeeded and succeeded[k].id not in tried),
+                      None)
+        if source is not None:
+            point = study.points[i]
+            retries.append(_point_job(study, i, _warm(study, point["params"], source), point["values"]))
+    return retries
+
+
+def _polish(study: Study, rows: list[Job], values: dict[str, float]) -> list[Job]:
+    """Retry each point from a neighbour whose best answer beats its own (once per source job)."""
+    field = WARM_START_FIELD.get(study.kind)
+    if field is None or not values:
+        return []
+    best = best_by_index(rows, values)
+    retries = []
+    for i, job in sorted(best.items()):
+        tried = {_from_job(j.params, field) for j in rows if j.study_index == i}
+        for k in (i - 1, i + 1):
+            src = best.get(k)
+            if (src is not None and src.id in values and src.id not in tried
+                    and (job.id not in values or values[src.id] < values[job.id] - 1e-6 * abs(values[src.id]))):
+                point = study.points[i]
+                retries.append(_point_job(study, i, _warm(study, point["params"], src), point["values"]))
+                break
+    return retries
 
 
 def _from_job(params: dict, field: str):
@@ -233,15 +314,15 @@ def list_studies(db: Database, *, owner: str | None, admin: bool, limit: int, of
 
 
 def summary(db: Database, study: Study) -> dict:
-    latest = latest_by_index(point_jobs(db, study.id))
+    all_jobs = point_jobs(db, study.id)
+    with db.read() as session:
+        latest = best_by_index(all_jobs, objective_values(session, study.kind, all_jobs))
     n = len(study.points)
     done = sum(1 for j in latest.values() if j.status in FINAL_STATUSES)
     counts: dict[str, int] = {}
     for j in latest.values():
         counts[j.status] = counts.get(j.status, 0) + 1
     status = study.status
-    if status == "running" and study.mode == "independent" and done == n:
-        status = "finished"
     return {"id": study.id, "kind": study.kind, "label": study.label, "preset": study.preset, "mode": study.mode,
             "status": status, "progress": done / n if n else 1.0, "points": n, "points_by_status": counts,
             "sweeps": study.sweeps, "base_params": study.base_params,
@@ -253,13 +334,16 @@ def trade_table(db: Database, study: Study) -> list[dict]:
     """One row per point: swept values, status, the kind's key numbers, the job id (and warm start source)."""
     from app import jobs
 
-    latest = latest_by_index(point_jobs(db, study.id))
+    all_jobs = point_jobs(db, study.id)
+    with db.read() as session:
+        latest = best_by_index(all_jobs, objective_values(session, study.kind, all_jobs))
     field = WARM_START_FIELD.get(study.kind)
     rows = []
     for point in study.points:
         job = latest.get(point["index"])
         row = {"index": point["index"], **point["values"], "status": job.status if job else "pending",
-               "job_id": job.id if job else None}
+               "job_id": job.id if job else None,
+               "jobs": sum(1 for j in all_jobs if j.study_index == point["index"])}
         if job is not None:
             if field:
                 row["warm_start_from"] = _from_job(job.params, field)

@@ -11,6 +11,11 @@ MAX_GENERIC = 10
 
 # Where each kind takes a warm start from a stored job: the console's "warm start" button and the
 # continuation walk of a study fill it in.  midcourse has none (NSGA-II starts from its seed).
+# A key number whose better direction never depends on the parameters: a study keeps the best job of each
+# point by it and, once every point is final, retries a point from a neighbour that did better (multimodal
+# problems: a cold start can land in a worse local optimum than its neighbour's).
+FIXED_OBJECTIVE = {"intercept": ("finite_thrust.fuel_kg", "min")}
+
 WARM_START_FIELD = {"reentry": "initial_guess.from_job", "robust_reentry": "initial_guess.from_job",
                     "intercept": "finite_thrust.from_job"}
 

@@ -103,7 +103,8 @@ def curve(name: str) -> list[dict]:
         stack.close()
     print(f"\n{name}: {len(result['rows'])} points in {wall:.1f} s")
     rows = result["rows"]
-    cols = [c for c in dict.fromkeys(k for r in rows for k in r) if c not in ("job_id", "warm_start_from")][:9]
+    cols = [c for c in dict.fromkeys(k for r in rows for k in r) if c not in ("job_id", "warm_start_from")
+            and not c.startswith("impulsive.")][:9]
     print("  ".join(f"{c[-22:]:>22}" for c in cols))
     for r in rows:
         print("  ".join(f"{r.get(c):>22.6g}" if isinstance(r.get(c), float) else f"{str(r.get(c))[-22:]:>22}"
@@ -114,14 +115,16 @@ def curve(name: str) -> list[dict]:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--curves", default="", help="study presets to run (comma-separated, or 'all')")
+    ap.add_argument("--no-speedup", action="store_true", help="only the curves")
     args = ap.parse_args()
     from app.study_presets import STUDY_PRESETS
 
-    figures: dict = {"speedup": speedup()}
-    s = figures["speedup"]
-    print(f"{'independent 10-point reentry study':<40}{'wall (s)':>10}{'ratio to 1 worker':>20}")
-    print(f"{'1 worker process':<40}{s['wall_1_worker_s']:>10.2f}{1.0:>20.2f}")
-    print(f"{'2 worker processes':<40}{s['wall_2_workers_s']:>10.2f}{s['speedup']:>20.2f}   (target > 1.8)")
+    figures: dict = {"speedup": speedup()} if not args.no_speedup else {}
+    s = figures.get("speedup")
+    if s:
+        print(f"{'independent 10-point reentry study':<40}{'wall (s)':>10}{'ratio to 1 worker':>20}")
+        print(f"{'1 worker process':<40}{s['wall_1_worker_s']:>10.2f}{1.0:>20.2f}")
+        print(f"{'2 worker processes':<40}{s['wall_2_workers_s']:>10.2f}{s['speedup']:>20.2f}   (target > 1.8)")
     names = list(STUDY_PRESETS) if args.curves == "all" else [n for n in args.curves.split(",") if n]
     figures["curves"] = {name: curve(name) for name in names}
     write_results("studies", figures)

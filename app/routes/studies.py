@@ -164,8 +164,14 @@ def list_studies(db: DatabaseDep, principal: PrincipalDep,
 
 
 @router.get("/{study_id}", response_model=StudyOut, responses={404: {"description": "Unknown study"}})
-def get_study(study_id: str, db: DatabaseDep, principal: PrincipalDep):
-    return studies.summary(db, _visible(db, study_id, principal))
+def get_study(study_id: str, db: DatabaseDep, settings: SettingsDep, celery: CeleryDep, principal: PrincipalDep):
+    study = _visible(db, study_id, principal)
+    if study.status == "running":
+        # The worker moves a study on when a point finishes; a point that ended elsewhere (cancelled,
+        # given up by the reaper) is caught here as well as by the recovery loop.
+        _publish(db, celery, settings, studies.advance(db, study_id))
+        study = studies.get_study(db, study_id)
+    return studies.summary(db, study)
 
 
 @router.get("/{study_id}/result", responses={404: {"description": "Unknown study"}})

@@ -31,6 +31,11 @@ def test_sweep_values_and_cartesian_points():
         studies.expand({"a": 0}, [{"path": "nope", "values": [1]}])
     with pytest.raises(KeyError):
         studies.expand({"a": 0}, [{"path": "a.b", "values": [1]}])
+    # an element of a list parameter, by index
+    pts = studies.expand({"tf_bounds_s": [2000.0, 6000.0]}, [{"path": "tf_bounds_s.1", "values": [7000.0]}])
+    assert pts[0].params == {"tf_bounds_s": [2000.0, 7000.0]} and pts[0].values == {"tf_bounds_s.1": 7000.0}
+    with pytest.raises(KeyError):
+        studies.expand({"tf_bounds_s": [2000.0, 6000.0]}, [{"path": "tf_bounds_s.2", "values": [1.0]}])
 
 
 def _finish(db, job, status):
@@ -83,3 +88,23 @@ def test_cancel_cancels_queued_points(db):
     statuses = sorted(j.status for j in studies.point_jobs(db, study.id))
     assert statuses == ["cancelled", "cancelled", "succeeded"]
     assert studies.get_study(db, study.id).status == "cancelled"
+
+
+def test_independent_study_retries_a_failed_point_from_a_solved_neighbour(db):
+    sweeps = [{"path": "path.max_heat_rate_w_m2", "values": [4.0, 3.0, 2.0]}]
+    study, created = studies.create_study(db, kind="reentry", preset=None, label=None, base_params=BASE,
+                                          sweeps=sweeps, mode="independent", points=studies.expand(BASE, sweeps),
+                                          owner=None, queue="trajlab.jobs")
+    for job, status in zip(created, ("succeeded", "failed", "failed")):
+        _finish(db, job, status)
+        retries = studies.advance(db, study.id)
+    # point 1 from point 0; point 2 has no solved neighbour yet
+    assert [(j.study_index, j.params["initial_guess"]["from_job"]) for j in retries] == [(1, created[0].id)]
+    _finish(db, retries[0], "succeeded")
+    again = studies.advance(db, study.id)
+    assert [(j.study_index, j.params["initial_guess"]["from_job"]) for j in again] == [(2, retries[0].id)]
+    _finish(db, again[0], "failed")
+    assert studies.advance(db, study.id) == []  # tried from every solved neighbour: the failure is the answer
+    rows = studies.trade_table(db, studies.get_study(db, study.id))
+    assert [r["status"] for r in rows] == ["succeeded", "succeeded", "failed"]
+    assert studies.get_study(db, study.id).status == "finished"
