@@ -5,17 +5,11 @@ from __future__ import annotations
 import pytest
 
 from app import jobs, studies
-from app.db import Database
-from app.migrate import upgrade
 
 
 @pytest.fixture
-def db(tmp_path):
-    url = f"sqlite:///{tmp_path / 's.db'}"
-    upgrade(url)
-    d = Database(url)
-    yield d
-    d.dispose()
+def db(sqlite_db):
+    return sqlite_db
 
 
 BASE = {"grid": {"intervals": 20}, "path": {"max_heat_rate_w_m2": None}, "initial_guess": {"from_job": None}}
