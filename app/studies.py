@@ -305,10 +305,11 @@ def get_study(db: Database, study_id: str) -> Study | None:
         return s.get(Study, study_id)
 
 
-def list_studies(db: Database, *, owner: str | None, admin: bool, limit: int, offset: int) -> list[Study]:
+def list_studies(db: Database, *, owner: str | None, limit: int, offset: int) -> list[Study]:
+    """Newest first; ``owner`` None lists every owner's (admins, auth off)."""
     with db.read() as s:
         q = select(Study)
-        if not admin:
+        if owner is not None:
             q = q.where(Study.owner == owner)
         return list(s.scalars(q.order_by(Study.created_at.desc(), Study.id.desc()).limit(limit).offset(offset)))
 

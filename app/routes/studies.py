@@ -72,7 +72,7 @@ class StudyOut(BaseModel):
 
 def _visible(db, study_id: str, principal: Principal):
     study = studies.get_study(db, study_id)
-    if study is None or not (principal.admin or (study.owner is not None and study.owner == principal.owner)):
+    if study is None or not principal.may_see(study):  # the jobs' rule: another owner's study is a 404
         raise HTTPException(status_code=404, detail=f"study {study_id} not found")
     return study
 
@@ -159,7 +159,7 @@ def _publish(db, celery, settings, created) -> None:
 @router.get("", response_model=list[StudyOut])
 def list_studies(db: DatabaseDep, principal: PrincipalDep,
                  limit: Annotated[int, Query(ge=1, le=200)] = 50, offset: Annotated[int, Query(ge=0, le=2**62)] = 0):
-    return [studies.summary(db, s) for s in studies.list_studies(db, owner=principal.owner, admin=principal.admin,
+    return [studies.summary(db, s) for s in studies.list_studies(db, owner=principal.owner_filter,
                                                                   limit=limit, offset=offset)]
 
 

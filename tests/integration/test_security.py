@@ -200,3 +200,24 @@ def test_quick_job_finishes_while_two_heavy_jobs_hold_the_heavy_workers(secure):
             secure.client.post(f"/v1/jobs/{job['id']}/cancel", headers=secure.h(who))
         for who, job in zip(("heavy1", "heavy2"), heavy):
             assert secure.wait(who, job["id"], ("cancelled", "failed", "succeeded"), timeout=90)["status"] == "cancelled"
+
+
+def test_studies_are_isolated_between_owners(secure):
+    body = {"kind": "intercept", "preset": "long-range-intercept", "mode": "independent",
+            "params": {"methods": ["impulsive"], "scan": {"step_s": 5.0}},
+            "sweeps": [{"path": "intercept_time_s", "values": [8080.5, 8500.0]}]}
+    r = secure.client.post("/v1/studies", json=body, headers=secure.h("alice"))
+    assert r.status_code == 202, r.text
+    study_id = r.json()["id"]
+    assert secure.client.post("/v1/studies", json=body).status_code == 401
+    for method, path in (("GET", "/v1/studies/{id}"), ("GET", "/v1/studies/{id}/result"),
+                         ("GET", "/v1/studies/{id}/plot.png"), ("POST", "/v1/studies/{id}/cancel")):
+        r = secure.client.request(method, path.format(id=study_id), headers=secure.h("bob"))
+        assert r.status_code == 404, (method, path, r.status_code)
+    assert study_id not in [s["id"] for s in secure.client.get("/v1/studies", headers=secure.h("bob")).json()]
+    assert study_id in [s["id"] for s in secure.client.get("/v1/studies", headers=secure.h("alice")).json()]
+    assert study_id in [s["id"] for s in secure.client.get("/v1/studies", headers=secure.h("ops")).json()]
+    rows = secure.client.get(f"/v1/studies/{study_id}/result", headers=secure.h("alice")).json()["rows"]
+    for row in rows:  # the points are alice's jobs
+        assert secure.client.get(f"/v1/jobs/{row['job_id']}", headers=secure.h("bob")).status_code == 404
+        assert secure.client.get(f"/v1/jobs/{row['job_id']}", headers=secure.h("alice")).status_code == 200
