@@ -1,7 +1,8 @@
 # One image for every trajlab process (api, worker, beat, migrate); the command picks the role.
 FROM python:3.11-slim
 WORKDIR /srv/trajlab
-ENV PYTHONDONTWRITEBYTECODE=1 PYTHONUNBUFFERED=1 MPLCONFIGDIR=/tmp/matplotlib
+# NUMBA_CACHE_DIR: the read-only image cannot hold numba's compiled Lambert loop; /tmp (tmpfs) can
+ENV PYTHONDONTWRITEBYTECODE=1 PYTHONUNBUFFERED=1 MPLCONFIGDIR=/tmp/matplotlib NUMBA_CACHE_DIR=/tmp/numba
 COPY pyproject.toml README.md alembic.ini ./
 COPY app ./app
 COPY worker ./worker

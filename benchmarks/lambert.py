@@ -2,11 +2,12 @@
 
 Run: ``python -m benchmarks.lambert`` (one core: the BLAS/OpenMP thread counts are
 set to 1 before numpy loads).  Every figure is printed with its ratio against
-the reference measured in the same run: lamberthub's ``izzo2015`` (numba) called
-in a Python loop, the usual way a scalar library is used from Python; if
-lamberthub is not installed (it is only in the ``bench`` extra), a scipy
-``brentq`` on the universal variable z (Curtis algorithm 5.2) is the reference.
-The brentq loop is always measured too, on fewer cases, as a second baseline.
+the reference measured in the same run, the peer at its strongest: lamberthub's
+``izzo2015`` (numba) called from a numba ``@njit`` loop over the batch (no
+Python in the loop).  The same solver from a Python loop, the usual way a
+scalar library is used, is printed too.  If lamberthub is not installed (it is
+only in the ``bench`` extra), a scipy ``brentq`` on the universal variable z
+(Curtis algorithm 5.2) is the reference; it is always measured, on fewer cases.
 """
 from __future__ import annotations
 
@@ -102,11 +103,11 @@ def main() -> None:
     lambert(MU, r1[:10], r2[:10], tof[:10])  # warm up imports and caches
     t_vec, sol = timed(lambda: lambert(MU, r1, r2, tof))
     miss = np.linalg.norm(propagate(MU, r1, sol.v1, tof)[0] - r2, axis=1) / np.linalg.norm(r2, axis=1)
-    rows.append(("trajlab lambert, vectorized, 0 rev", BATCH, t_vec,
+    rows.append(("trajlab lambert (compiled batch loop), 0 rev", BATCH, t_vec,
                  f"converged {sol.converged.mean():.4f}, max rel. miss after propagation {miss.max():.1e}"))
     t_m1, sol1 = timed(lambda: lambert(MU, r1, r2, tof + 2 * math.pi * np.sqrt(
         (0.5 * (np.linalg.norm(r1, axis=1) + np.linalg.norm(r2, axis=1))) ** 3 / MU), revolutions=1))
-    rows.append(("trajlab lambert, vectorized, 1 rev (low path)", BATCH, t_m1,
+    rows.append(("trajlab lambert (compiled batch loop), 1 rev (low path)", BATCH, t_m1,
                  f"converged {sol1.converged.mean():.4f}"))
 
     ref_name = None
@@ -121,8 +122,21 @@ def main() -> None:
                 v1[k], v2[k] = izzo2015(MU, r1[k], r2[k], tof[k], M=0, prograde=True, low_path=True,
                                         atol=1e-13, rtol=1e-13)
             return v1, v2
-        t_ref, (rv1, rv2) = timed(loop, repeats=3)
-        ref_name = "lamberthub 1.0.0 izzo2015 (numba), Python loop"
+        t_py, _ = timed(loop, repeats=3)
+        rows.append(("lamberthub 1.0.0 izzo2015 (numba), Python loop", BATCH, t_py, ""))
+        from numba import njit
+
+        @njit
+        def njit_loop(mu, a, b, t):
+            v1 = np.empty_like(a)
+            v2 = np.empty_like(a)
+            for k in range(a.shape[0]):
+                v1[k], v2[k] = izzo2015(mu, a[k], b[k], t[k], 0, True, True, 35, 1e-13, 1e-13)
+            return v1, v2
+
+        njit_loop(MU, r1[:2], r2[:2], tof[:2])  # compile outside the clock
+        t_ref, (rv1, rv2) = timed(lambda: njit_loop(MU, r1, r2, tof))
+        ref_name = "lamberthub 1.0.0 izzo2015 (numba), inside a numba @njit loop"
         rows.append((ref_name, BATCH, t_ref, ""))
     except ImportError:
         pass
@@ -168,9 +182,9 @@ def main() -> None:
         print(f"{'1 rev, low path, vs lamberthub izzo2015':58s} {count:7d} cases  max |dv1| {worst:.2e} m/s")
     except ImportError:
         pass
-    rate = BATCH / t_vec
-    print(f"\ntarget >= 500,000 solves/s: {'met' if rate >= 5e5 else 'NOT met'} ({rate:,.0f}/s, "
-          f"{rate / 250_000:.1f}x the 250,000/s quoted for pykep in a Python loop)")
+    for name, n, t, _ in rows[:2]:
+        rate = n / t
+        print(f"target >= 3,000,000 solves/s ({name}): {'met' if rate >= 3e6 else 'NOT met'} ({rate:,.0f}/s)")
 
 
 if __name__ == "__main__":

@@ -115,18 +115,20 @@ def test_monte_carlo_optimize_reports_both_statistics_on_the_front():
 
 
 def test_paper_run_front_is_the_one_stored_before_the_ask_tell_loop():
-    # Paper 002's preset (100 x 500, seed 1) as recorded with pymoo's minimize() before NSGA-II
-    # moved to our own ask/tell loop (issue 12): the same seed must give the same front.
+    # Paper 002's preset (100 x 500, seed 1): the same seed must give the same front.  Recorded when
+    # NSGA-II moved to our own ask/tell loop (identical to pymoo's minimize()), and again when Lambert
+    # moved to a compiled loop (velocities within 5e-9 m/s of the numpy version): a genetic search
+    # follows roundoff, so its front is a regression guard, not a reference number.
     out = run(preset("upper-stage-two-corrections"), RecordingContext())
     res = out.result
     assert out.status == "succeeded" and res["generations"] == 500 and res["evaluations"] == 50000
     front = res["pareto_front"]
     assert len(front) == 100
-    assert res["hypervolume"] == pytest.approx(0.7216884176001721, rel=1e-12)
+    assert res["hypervolume"] == pytest.approx(0.7840698471521707, rel=1e-12)
     stored = [  # first, middle and last point: times (s), delta-v (m/s), position error (m), velocity error (m/s)
-        ([536.4199649511277, 536.4201121032946], 19.894102494692525, 23443.253537825938, 1.1346900787348142),
-        ([2412.463033050215, 12799.999998189074], 126.30546319451116, 0.11745393464927033, 80.45505732234867),
-        ([1055.5374330004747, 12799.99999758906], 392.2895832475895, 0.11727147621175918, 362.4720180434057),
+        ([536.6553286656565, 536.6645969762044], 19.894375531090578, 23437.762668604355, 1.129447024769732),
+        ([2530.646999906159, 12799.9999933429], 117.1232913108299, 0.11746305887946797, 69.75482977421251),
+        ([1058.26250712979, 12799.999991092995], 391.8793076632471, 0.11727148517957588, 362.0211768994802),
     ]
     for p, (times, dv, pos, vel) in zip((front[0], front[50], front[-1]), stored):
         assert p["times_s"] == pytest.approx(times, rel=1e-12)
