@@ -80,7 +80,7 @@ def main():
     for name, q in (("betts-max-crossrange", None),
                     ("betts-max-crossrange-heat-limited", sh.BETTS_HEAT_LIMIT_W_M2)):
         for m in (50, 100, 200):
-            nlp._CACHE.clear()
+            nlp.clear_cache()
             pr = ReentryProblem(intervals=m, max_heat_rate_w_m2=q)
             t0 = time.perf_counter()
             s = solve(pr)

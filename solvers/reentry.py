@@ -25,17 +25,16 @@ import numpy as np
 from solvers.common import Outcome, ProgressFn, SolveStatus, StopFn
 from solvers.models import reentry_dynamics as dyn
 from solvers.models import shuttle as sh
+from solvers.models.reentry_state import (ALPHA, ALTITUDE, BANK, LATITUDE, LONGITUDE, NU, NX,
+                                          SPEED, STATE_NAMES, STATES, U_SCALE, X_SCALE, Trajectory,
+                                          box_bounds)
 from solvers.transcription.multiple_shooting import (PathConstraint, ShootingProblem,
                                                       Transcription, control_at, control_nodes)
 from solvers.verification import Verification, repropagate
 
 OBJECTIVES = ("max_crossrange", "max_downrange", "max_great_circle_range", "min_heat_load",
               "min_time")
-STATE_NAMES = ("altitude_m", "longitude_rad", "latitude_rad", "speed_mps", "flight_path_rad",
-               "heading_rad")
-# Betts' scaling advice: h / 1e5 ft, v / 1e4 ft/s, angles in radians, time in 1000 s.
-X_SCALE = (1e5 * sh.FT_TO_M, 1.0, 1.0, 1e4 * sh.FT_TO_M, 1.0, 1.0)
-U_SCALE = (1.0, 1.0)
+# State and control scaling: solvers.models.reentry_state; time in 1000 s (Betts).
 T_SCALE = 1000.0
 HEAT_LOAD_SCALE = 1e12    # sqrt(kg/m^3) m^3/s^2 s: J is ~5e12 for paper 000's case 3
 
@@ -52,9 +51,9 @@ class Terminal:
     heading_rad: float | None = None
 
     def as_array(self) -> np.ndarray:
-        return np.array([np.nan if v is None else v for v in
-                         (self.altitude_m, self.longitude_rad, self.latitude_rad,
-                          self.speed_mps, self.flight_path_rad, self.heading_rad)], float)
+        """(NX,) in the state's order, NaN where free."""
+        values = (getattr(self, name) for name in STATE_NAMES)
+        return np.array([np.nan if v is None else v for v in values], float)
 
 
 @dataclass
@@ -90,7 +89,7 @@ class ReentryProblem:
 
 @dataclass
 class InitialGuess:
-    """A guess on any time grid: ``t`` (N,), ``x`` (6, N), ``u`` (2, N), physical units."""
+    """A guess on any time grid: ``t`` (N,), ``x`` (NX, N), ``u`` (NU, N), physical units."""
 
     t: np.ndarray
     x: np.ndarray
@@ -101,7 +100,8 @@ class InitialGuess:
 class ReentrySolution:
     status: SolveStatus
     objective_name: str
-    objective_value: float          # in the objective's natural unit (rad, s, SI heat load)
+    objective_value: float          # in objective_unit
+    objective_unit: str             # "rad", "s" or the heat load's SI unit
     tf: float
     t: np.ndarray
     x: np.ndarray                   # (6, m+1)
@@ -111,6 +111,11 @@ class ReentrySolution:
     verification: Verification | None
     notes: list[str] = field(default_factory=list)
     stages: list[dict] = field(default_factory=list)
+
+    @property
+    def trajectory(self) -> Trajectory:
+        """The nodes as a :class:`Trajectory` (controls at every node, heating rate)."""
+        return Trajectory(t=self.t, x=self.x, u=self.u_nodes_at_t, path={"heat_rate_w_m2": self.heat_rate})
 
 
 # --- NLP parameters: vehicle data and limits are numbers, not structure ----------------------
@@ -160,15 +165,15 @@ def _shooting_problem(problem: ReentryProblem, *, with_path: bool = True) -> Sho
     mayer, lagrange, scale = None, None, 1.0
     obj = problem.objective
     if obj == "max_crossrange":
-        mayer = lambda xf, T, p: -xf[2]  # noqa: E731
+        mayer = lambda xf, T, p: -xf[LATITUDE]  # noqa: E731
     elif obj == "max_downrange":
-        mayer = lambda xf, T, p: -xf[1]  # noqa: E731
+        mayer = lambda xf, T, p: -xf[LONGITUDE]  # noqa: E731
     elif obj == "max_great_circle_range":
         def mayer(xf, T, p):
             lon0, lat0 = unpack(p)[4], unpack(p)[5]
             # Minimizing the cosine of the central angle avoids arccos' infinite slope at 180 deg.
-            return (ca.sin(lat0) * ca.sin(xf[2])
-                    + ca.cos(lat0) * ca.cos(xf[2]) * ca.cos(xf[1] - lon0))
+            return (ca.sin(lat0) * ca.sin(xf[LATITUDE])
+                    + ca.cos(lat0) * ca.cos(xf[LATITUDE]) * ca.cos(xf[LONGITUDE] - lon0))
     elif obj == "min_heat_load":
         lagrange = lambda x, u, p: dyn.stagnation_heat_integrand(x, unpack(p)[0], ca)  # noqa: E731
         scale = HEAT_LOAD_SCALE
@@ -179,17 +184,17 @@ def _shooting_problem(problem: ReentryProblem, *, with_path: bool = True) -> Sho
     key = ("reentry", obj, len(veh0.cl_coeffs), len(veh0.cd_coeffs), tuple(veh0.heat_coeffs),
            atm, veh0.planet, veh0.rotating_earth)
     return ShootingProblem(
-        key=key, nx=6, nu=2, n_params=n_params, dynamics=dynamics, x_scale=X_SCALE,
+        key=key, nx=NX, nu=NU, n_params=n_params, dynamics=dynamics, x_scale=X_SCALE,
         u_scale=U_SCALE, t_scale=T_SCALE, intervals=problem.intervals, control=problem.control,
         substeps=problem.substeps, mayer=mayer, lagrange=lagrange, objective_scale=scale,
         path=tuple(path), ipopt=dict(problem.ipopt))
 
 
 # --- numpy helpers ---------------------------------------------------------------------------
-def _rhs_numpy(vehicle):
+def rhs_numpy(vehicle):
     """Fast scalar right-hand side for the adaptive integrator: one compiled CasADi call
     costs a few microseconds where the numpy expression of 6-vectors costs ~50."""
-    xs, us = ca.SX.sym("x", 6), ca.SX.sym("u", 2)
+    xs, us = ca.SX.sym("x", NX), ca.SX.sym("u", NU)
     f = ca.Function("eom", [xs, us], [dyn.eom(xs, us, vehicle, ca)])
 
     def rhs(x, u):
@@ -200,14 +205,14 @@ def _rhs_numpy(vehicle):
 def simulate_constant_controls(problem: ReentryProblem, *, alpha_rad: float, bank_rad: float,
                                t_max: float = 5000.0, dt: float = 5.0) -> InitialGuess:
     """Fixed-step RK4 glide with constant controls until the terminal altitude or speed is reached."""
-    rhs = _rhs_numpy(problem.vehicle)
+    rhs = rhs_numpy(problem.vehicle)
     u = np.array([alpha_rad, bank_rad])
     x = np.asarray(problem.initial_state, float)
     h_end = problem.terminal.altitude_m if problem.terminal.altitude_m is not None else 0.0
     v_end = problem.terminal.speed_mps if problem.terminal.speed_mps is not None else 0.0
     ts, xs = [0.0], [x]
     t = 0.0
-    while t < t_max and x[0] > h_end and x[3] > max(v_end, problem.min_speed_mps):
+    while t < t_max and x[ALTITUDE] > h_end and x[SPEED] > max(v_end, problem.min_speed_mps):
         k1 = rhs(x, u)
         k2 = rhs(x + 0.5 * dt * k1, u)
         k3 = rhs(x + 0.5 * dt * k2, u)
@@ -226,8 +231,8 @@ def linear_guess(problem: ReentryProblem, *, tf: float = 2000.0,
     a plausible end point), constant controls."""
     x0 = np.asarray(problem.initial_state, float)
     xf = problem.terminal.as_array()
-    default_end = np.array([sh.BETTS_TERMINAL["altitude_m"], x0[1] + 1.2, x0[2] + 0.5,
-                            sh.BETTS_TERMINAL["speed_mps"], -5.0 * sh.DEG, 0.0])
+    default_end = np.array([sh.BETTS_TERMINAL["altitude_m"], x0[LONGITUDE] + 1.2, x0[LATITUDE] + 0.5,
+                            sh.BETTS_TERMINAL["speed_mps"], sh.BETTS_TERMINAL["flight_path_rad"], 0.0])
     xf = np.where(np.isnan(xf), default_end, xf)
     s = np.linspace(0.0, 1.0, 11)
     X = x0[:, None] + (xf - x0)[:, None] * s[None, :]
@@ -246,11 +251,10 @@ def _on_grid(guess: InitialGuess, m: int, control: str):
     return tf, x, u[:, :nun]
 
 
-def _bounds(problem: ReentryProblem, m: int):
-    big = 1e3
-    margin = sh.SINGULARITY_MARGIN_RAD
-    lo = np.array([-1e4, -big, -margin, problem.min_speed_mps, -margin, -big])
-    hi = np.array([2e5, big, margin, 2e4, margin, big])
+def state_bounds(problem: ReentryProblem, m: int):
+    """Box bounds of the NLP on ``m`` intervals: ``x_lb, x_ub`` (NX, m+1) with the initial state and
+    the fixed terminal components pinned, and ``u_lb, u_ub`` (NU,)."""
+    lo, hi = box_bounds(min_speed_mps=problem.min_speed_mps)
     x_lb = np.tile(lo[:, None], (1, m + 1))
     x_ub = np.tile(hi[:, None], (1, m + 1))
     x0 = np.asarray(problem.initial_state, float)
@@ -260,8 +264,10 @@ def _bounds(problem: ReentryProblem, m: int):
     fixed = ~np.isnan(xf)
     x_lb[fixed, m] = xf[fixed]
     x_ub[fixed, m] = xf[fixed]
-    u_lb = np.array([problem.alpha_bounds_rad[0], problem.bank_bounds_rad[0]])
-    u_ub = np.array([problem.alpha_bounds_rad[1], problem.bank_bounds_rad[1]])
+    u_lb = np.empty(NU)
+    u_ub = np.empty(NU)
+    u_lb[ALPHA], u_ub[ALPHA] = problem.alpha_bounds_rad
+    u_lb[BANK], u_ub[BANK] = problem.bank_bounds_rad
     return x_lb, x_ub, u_lb, u_ub
 
 
@@ -270,13 +276,13 @@ def objective_value(problem: ReentryProblem, tf: float, x: np.ndarray, u_nodes: 
     """The objective in natural units: (value, unit)."""
     obj = problem.objective
     if obj == "max_crossrange":
-        return float(x[2, -1]), "rad"
+        return float(x[LATITUDE, -1]), "rad"
     if obj == "max_downrange":
-        return float(x[1, -1]), "rad"
+        return float(x[LONGITUDE, -1]), "rad"
     if obj == "max_great_circle_range":
-        lon0, lat0 = problem.initial_state[1], problem.initial_state[2]
-        c = (math.sin(lat0) * math.sin(x[2, -1])
-             + math.cos(lat0) * math.cos(x[2, -1]) * math.cos(x[1, -1] - lon0))
+        lon0, lat0 = problem.initial_state[LONGITUDE], problem.initial_state[LATITUDE]
+        latf, lonf = x[LATITUDE, -1], x[LONGITUDE, -1]
+        c = math.sin(lat0) * math.sin(latf) + math.cos(lat0) * math.cos(latf) * math.cos(lonf - lon0)
         return float(math.acos(max(-1.0, min(1.0, c)))), "rad"
     if obj == "min_heat_load":
         return float(np.trapezoid(dyn.stagnation_heat_integrand(x, problem.vehicle, np), t)), \
@@ -284,17 +290,23 @@ def objective_value(problem: ReentryProblem, tf: float, x: np.ndarray, u_nodes: 
     return float(tf), "s"
 
 
+def path_quantities(vehicle: sh.Vehicle) -> dict:
+    """The path quantities a verification reports, ``name -> fn(X, U)`` on (NX, N) arrays."""
+    return {"heat_rate_w_m2": lambda X, U: dyn.heat_rate(X, U, vehicle, np),
+            "dynamic_pressure_pa": lambda X, U: dyn.dynamic_pressure(X, vehicle, np),
+            "load_factor": lambda X, U: dyn.load_factor(X, U, vehicle, np)}
+
+
 def _physical_violation(problem: ReentryProblem, tr: Transcription, res) -> str:
     """Describe the worst violated constraint of an NLP iterate in physical units."""
     blocks = tr.constraint_blocks(res.nlp.g)
     parts = []
-    mm = blocks["matching"].reshape((6, -1), order="F") * np.asarray(X_SCALE)[:, None]
-    units = [("altitude", 1.0, "m"), ("longitude", 1 / sh.DEG, "deg"), ("latitude", 1 / sh.DEG, "deg"),
-             ("speed", 1.0, "m/s"), ("flight path angle", 1 / sh.DEG, "deg"),
-             ("heading", 1 / sh.DEG, "deg")]
+    mm = blocks["matching"].reshape((NX, -1), order="F") * np.asarray(X_SCALE)[:, None]
     rel = np.abs(mm) / np.asarray(X_SCALE)[:, None]
     i, j = np.unravel_index(int(np.argmax(rel)), rel.shape)
-    name, f, unit = units[i]
+    comp = STATES[i]
+    name = comp.label
+    f, unit = (1 / sh.DEG, "deg") if comp.is_angle else (1.0, comp.unit)
     parts.append(f"worst matching defect: {name} {abs(mm[i, j]) * f:.4g} {unit} at interval {j}")
     if j == mm.shape[1] - 1:
         # The last interval's integrated end is where the flight actually gets to.
@@ -336,7 +348,7 @@ def solve(problem: ReentryProblem, *, initial_guess: InitialGuess | str | None =
         problem = dataclasses.replace(problem, ipopt={"expect_infeasible_problem": "yes",
                                                       **problem.ipopt})
     p = _param_vector(problem)
-    x_lb, x_ub, u_lb, u_ub = _bounds(problem, m)
+    x_lb, x_ub, u_lb, u_ub = state_bounds(problem, m)
     build_time = 0.0
     spans = [(0.0, 0.95)]
     warm_internally = has_path and not isinstance(initial_guess, InitialGuess)
@@ -392,16 +404,13 @@ def _solution(problem, tr, res, build_time, notes, stages, *, verify) -> Reentry
                           f"{_physical_violation(problem, tr, res)}")
     u_nodes = _u_at_nodes(res.t, res.u, problem.control)
     q = dyn.heat_rate(res.x, u_nodes, problem.vehicle, np)
-    value, _ = objective_value(problem, res.tf, res.x, u_nodes, res.t)
+    value, unit = objective_value(problem, res.tf, res.x, u_nodes, res.t)
     ver = None
     if verify:
         t0 = time.perf_counter()
-        path = {"heat_rate_w_m2": lambda X, U: dyn.heat_rate(X, U, problem.vehicle, np),
-                "dynamic_pressure_pa": lambda X, U: dyn.dynamic_pressure(X, problem.vehicle, np),
-                "load_factor": lambda X, U: dyn.load_factor(X, U, problem.vehicle, np)}
-        ver = repropagate(rhs=_rhs_numpy(problem.vehicle), x0=problem.initial_state,
+        ver = repropagate(rhs=rhs_numpy(problem.vehicle), x0=problem.initial_state,
                           t_nodes=res.t, x_nodes=res.x, u_nodes=res.u, control=problem.control,
-                          path=path)
+                          path=path_quantities(problem.vehicle))
         status.details["verification_time_s"] = time.perf_counter() - t0
         if problem.max_heat_rate_w_m2 is not None:
             excess = ver.path_max["heat_rate_w_m2"] / problem.max_heat_rate_w_m2 - 1.0
@@ -410,6 +419,6 @@ def _solution(problem, tr, res, build_time, notes, stages, *, verify) -> Reentry
                              f"between them the re-propagated trajectory exceeds it by "
                              f"{100 * excess:.2f}% (worst {ver.path_max['heat_rate_w_m2']:.1f} W/m^2)")
     return ReentrySolution(status=status, objective_name=problem.objective, objective_value=value,
-                           tf=res.tf, t=res.t, x=res.x, u=res.u, u_nodes_at_t=u_nodes,
+                           objective_unit=unit, tf=res.tf, t=res.t, x=res.x, u=res.u, u_nodes_at_t=u_nodes,
                            heat_rate=np.asarray(q, float), verification=ver, notes=notes,
                            stages=stages)

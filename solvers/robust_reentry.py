@@ -22,9 +22,8 @@ supplies the mean, CADET along its controls the covariance; stage 1 has ``kJ = k
 no sigma limits, stage 2 is the full problem.  Both stages share one built solver (the
 weights are NLP parameters, the sigma limits bounds).
 
-Monte Carlo validation of both designs: :func:`monte_carlo_spec` gives a JSON spec for
-:mod:`solvers.uncertainty.montecarlo` whose model :func:`monte_carlo_model` is registered
-there as ``"shuttle_reentry"``.
+Monte Carlo validation of both designs: :mod:`solvers.robust_reentry_mc` (``monte_carlo_spec``
+is re-exported here).
 """
 from __future__ import annotations
 
@@ -39,14 +38,12 @@ from solvers import reentry as det
 from solvers.common import Outcome, ProgressFn, SolveStatus, StopFn
 from solvers.models import reentry_dynamics as dyn
 from solvers.models import shuttle as sh
-from solvers.models.atmosphere import Atmosphere
+from solvers.models.reentry_state import LATITUDE, NU, NX, U_SCALE, X_SCALE, Trajectory
+from solvers.robust_reentry_mc import TERMINAL_INDEX, monte_carlo_spec  # noqa: F401 (re-exported)
 from solvers.transcription.multiple_shooting import PathConstraint, ShootingProblem, Transcription
 from solvers.uncertainty.cadet import CadetSensitivity, CadetSystem
-from solvers.uncertainty.montecarlo import MCModel
-from solvers.uncertainty.montecarlo import PathConstraint as MCPath
 
-NX, NU, NS = 6, 2, 2
-TERMINAL_INDEX = {"altitude_m": 0, "speed_mps": 3, "flight_path_rad": 4}
+NS = 2   # uncertain parameters: relative errors of (CD, CL)
 # Typical 1-sigma spreads, for scaling the covariance entries to O(1) in the NLP.
 SIGMA_SCALE = (3000.0, 0.005, 0.005, 100.0, 0.01, 0.01)
 S_SCALE = (0.01, 0.01)
@@ -147,6 +144,11 @@ class RobustReentrySolution:
     stages: list[dict] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
 
+    @property
+    def trajectory(self) -> Trajectory:
+        """The mean nodes as a :class:`Trajectory` (mean heating rate)."""
+        return Trajectory(t=self.t, x=self.x, u=self.u, path={"heat_rate_w_m2": self.heat_rate})
+
 
 # --- the CADET system of the shuttle --------------------------------------------------------
 def _heat_moments(cad: CadetSensitivity, vehicle: sh.Vehicle, q_max: float) -> ca.Function:
@@ -187,8 +189,8 @@ def _robust_problem(problem: RobustReentryProblem, cad: CadetSensitivity, *, ipo
 
     def mayer(zf, T, p):
         kj = p[nth]
-        var = cad.variance_of_state(zf, p[:nth], 2)
-        return -(zf[2] - kj * ca.sqrt(ca.fmax(var, 0) + 1e-14))
+        var = cad.variance_of_state(zf, p[:nth], LATITUDE)
+        return -(zf[LATITUDE] - kj * ca.sqrt(ca.fmax(var, 0) + 1e-14))
 
     def terminal(zf, p):
         # variances of h_f, v_f, gamma_f over their limits squared: bounds (-inf, 1] in stage 2
@@ -197,11 +199,11 @@ def _robust_problem(problem: RobustReentryProblem, cad: CadetSensitivity, *, ipo
 
     L = cad.layout
     w_scale = (1.0,) * cad.r0 + S_SCALE
-    x_scale = L.scale_with_mean(det.X_SCALE, SIGMA_SCALE, w_scale)
+    x_scale = L.scale_with_mean(X_SCALE, SIGMA_SCALE, w_scale)
     key = ("robust_reentry", vehicle, rob.second_order, cad.r0, float(q_max), float(rob.heat_margin))
     return ShootingProblem(
         key=key, nx=L.nz, nu=NU, n_params=nth + 2, dynamics=dynamics, x_scale=tuple(x_scale),
-        u_scale=det.U_SCALE, t_scale=det.T_SCALE, intervals=base.intervals, control="linear",
+        u_scale=U_SCALE, t_scale=det.T_SCALE, intervals=base.intervals, control="linear",
         substeps=rob.substeps, mayer=mayer, terminal=terminal, n_terminal=len(TERMINAL_INDEX),
         path=(PathConstraint("robust_heat_rate", heat, size=2, where="substeps"),),
         # A warm start: IPOPT's adaptive barrier jumped to mu = 1e9 on the first step and
@@ -213,7 +215,7 @@ def _bounds(problem: RobustReentryProblem, cad: CadetSensitivity, *, sigma_limit
     base = problem.base
     m = base.intervals
     L = cad.layout
-    x_lb6, x_ub6, u_lb, u_ub = det._bounds(base, m)  # the deterministic problem's own bounds
+    x_lb6, x_ub6, u_lb, u_ub = det.state_bounds(base, m)  # the deterministic problem's own bounds
     big = 1e20
     x_lb = np.vstack([x_lb6, np.full((L.nz - NX, m + 1), -big)])
     x_ub = np.vstack([x_ub6, np.full((L.nz - NX, m + 1), big)])
@@ -328,7 +330,7 @@ def solve(problem: RobustReentryProblem, *, initial_guess=None, on_progress: Pro
         status.message = f"{stages[-1]['stage']}: {st.message}"
     mean = res.x[:NX]
     pred = _prediction(problem, cad, res.t, res.x, res.u, theta)
-    obj = float(mean[2, -1] - rob.k_objective * pred.sigma[2, -1])
+    obj = float(mean[LATITUDE, -1] - rob.k_objective * pred.sigma[LATITUDE, -1])
     ver = None
     if st.ok and base.verify:
         nominal = dataclasses.replace(base.vehicle, cd_scale=base.vehicle.cd_scale * (1 + unc.s_mean[0]),
@@ -336,9 +338,7 @@ def solve(problem: RobustReentryProblem, *, initial_guess=None, on_progress: Pro
         from solvers.verification import repropagate
         ver = repropagate(rhs=lambda x, u: dyn.eom(x, u, nominal, np), x0=base.initial_state,
                           t_nodes=res.t, x_nodes=mean, u_nodes=res.u, control="linear",
-                          path={"heat_rate_w_m2": lambda X, U: dyn.heat_rate(X, U, nominal, np),
-                                "dynamic_pressure_pa": lambda X, U: dyn.dynamic_pressure(X, nominal, np),
-                                "load_factor": lambda X, U: dyn.load_factor(X, U, nominal, np)})
+                          path=det.path_quantities(nominal))
         notes.append("verification re-propagates the robust controls with s = mu_s (the mean "
                      "aerodynamics); the difference to the CADET mean is the nonlinearity the "
                      "second-order term does not capture")
@@ -346,81 +346,3 @@ def solve(problem: RobustReentryProblem, *, initial_guess=None, on_progress: Pro
         status=status, deterministic=do, tf=res.tf, t=res.t, x=mean, u=res.u, objective_value=obj,
         heat_rate=pred.heat_mean, robust_prediction=pred, deterministic_prediction=do_pred,
         verification=ver, stages=stages, notes=notes)
-
-
-# --- Monte Carlo ------------------------------------------------------------------------------
-def vehicle_to_dict(v: sh.Vehicle) -> dict:
-    return {"mass_kg": float(v.mass_kg), "area_m2": float(v.area_m2),
-            "cl_coeffs": [float(c) for c in v.cl_coeffs], "cd_coeffs": [float(c) for c in v.cd_coeffs],
-            "heat_coeffs": [float(c) for c in v.heat_coeffs],
-            "atmosphere": dataclasses.asdict(v.atmosphere), "planet": dataclasses.asdict(v.planet),
-            "rotating_earth": bool(v.rotating_earth), "cd_scale": float(v.cd_scale),
-            "cl_scale": float(v.cl_scale)}
-
-
-def vehicle_from_dict(d: dict) -> sh.Vehicle:
-    return sh.Vehicle(mass_kg=d["mass_kg"], area_m2=d["area_m2"], cl_coeffs=tuple(d["cl_coeffs"]),
-                      cd_coeffs=tuple(d["cd_coeffs"]), heat_coeffs=tuple(d["heat_coeffs"]),
-                      atmosphere=Atmosphere(**d["atmosphere"]), planet=sh.Planet(**d["planet"]),
-                      rotating_earth=d["rotating_earth"], cd_scale=d["cd_scale"], cl_scale=d["cl_scale"])
-
-
-TERMINAL_NAMES = ("altitude_m", "longitude_rad", "latitude_rad", "speed_mps", "flight_path_rad", "heading_rad")
-
-
-def monte_carlo_model(params: dict) -> MCModel:
-    """The shuttle with sampled ``(s1, s2)``: ``CD (1 + s1)``, ``CL (1 + s2)``."""
-    v = vehicle_from_dict(params["vehicle"])
-
-    def rhs(x, u, s):
-        return dyn.eom(x, u, v, np, cd_scale=1.0 + s[0], cl_scale=1.0 + s[1])
-
-    path = {}
-    if params.get("max_heat_rate_w_m2") is not None:
-        path["heat_rate"] = MCPath(fn=lambda x, u, s: dyn.heat_rate(x, u, v, np),
-                                   limit=float(params["max_heat_rate_w_m2"]))
-    if params.get("max_dynamic_pressure_pa") is not None:
-        path["dynamic_pressure"] = MCPath(fn=lambda x, u, s: dyn.dynamic_pressure(x, v, np),
-                                          limit=float(params["max_dynamic_pressure_pa"]))
-    if params.get("max_load_factor") is not None:
-        path["load_factor"] = MCPath(
-            fn=lambda x, u, s: dyn.load_factor(x, u, v, np, cd_scale=1.0 + s[0], cl_scale=1.0 + s[1]),
-            limit=float(params["max_load_factor"]))
-    return MCModel(nx=NX, nu=NU, ns=NS, rhs=rhs,
-                   terminal=lambda x: {n: x[i] for i, n in enumerate(TERMINAL_NAMES)}, path=path)
-
-
-def monte_carlo_spec(problem: RobustReentryProblem, *, t, u, cadet_sigma=None, substeps: int = 5) -> dict:
-    """JSON-serializable Monte Carlo spec for node controls ``u`` (2, m+1) at times ``t``.
-
-    ``cadet_sigma`` (6,) are CADET's terminal sigmas of this design: the "required value
-    +- sigma" band, known before the run so every chunk counts against the same band.
-    """
-    base, unc = problem.base, problem.uncertainty
-    required = {n: float(getattr(base.terminal, n)) for n in TERMINAL_INDEX
-                if getattr(base.terminal, n) is not None}
-    bands: dict = {}
-    for n in required:
-        b = {}
-        lim = problem.robust.sigma_limits.get(n)
-        if lim is not None:
-            b["sigma_limit"] = float(lim)
-        if cadet_sigma is not None:
-            b["sigma_cadet"] = float(cadet_sigma[TERMINAL_INDEX[n]])
-        bands[n] = b
-    return {
-        "model": "shuttle_reentry",
-        "model_params": {"vehicle": vehicle_to_dict(base.vehicle),
-                         "max_heat_rate_w_m2": base.max_heat_rate_w_m2,
-                         "max_dynamic_pressure_pa": base.max_dynamic_pressure_pa,
-                         "max_load_factor": base.max_load_factor},
-        "t_nodes": [float(v) for v in t],
-        "controls": [[float(v) for v in row] for row in np.asarray(u, float)],
-        "x0_mean": [float(v) for v in base.initial_state],
-        "x0_cov": None if unc.x0_std is None else unc.x0_cov.tolist(),
-        "s_mean": [float(v) for v in unc.s_mean],
-        "s_cov": unc.s_cov.tolist(),
-        "substeps": int(substeps),
-        "required": required,
-        "bands": bands,
-    }

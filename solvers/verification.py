@@ -29,6 +29,7 @@ class Verification:
     u: np.ndarray                       # dense controls
     path_max: dict[str, float] = field(default_factory=dict)
     path_argmax_t: dict[str, float] = field(default_factory=dict)
+    path_values: dict[str, np.ndarray] = field(default_factory=dict)   # each on the dense times t
     ok: bool = True
     message: str = ""
 
@@ -74,6 +75,7 @@ def repropagate(*, rhs: Callable[[np.ndarray, np.ndarray], np.ndarray], x0, t_no
                           max_node_difference=node_diff, t=t, x=X, u=U, ok=ok, message=msg)
     for name, fn in (path or {}).items():
         vals = np.asarray(fn(X, U), float).reshape(-1, X.shape[1])
+        report.path_values[name] = vals[0] if vals.shape[0] == 1 else vals
         j = int(np.argmax(vals.max(axis=0)))
         report.path_max[name] = float(vals[:, j].max())
         report.path_argmax_t[name] = float(t[j])

@@ -1,32 +1,37 @@
 """The ``robust_reentry`` kind's API edge: CADET robust design and Monte Carlo validation (paper 001).
 
-Parameters are those of the ``reentry`` kind (composed from :mod:`app.kinds.reentry`) plus
+Parameters are those of the ``reentry`` kind (:mod:`app.kinds.reentry_params`) plus
 ``uncertainty``, ``robust`` and ``monte_carlo``; SI and degrees at the edge,
 :mod:`solvers.robust_reentry` works in SI and radians.  The Monte Carlo of both designs runs
-through ``ctx.run_monte_carlo(spec, samples, seed, chunk_size)`` when the worker offers it (fan-out
-over Celery workers), in-process chunk by chunk otherwise; either way the chunks are the same pure
-function of the spec, so the statistics do not depend on where they ran.
+through ``ctx.run_monte_carlo(spec, samples, seed, chunk_size)`` (the service decides: in-process,
+or fanned out over the workers); either way the chunks are the same pure function of the spec, so
+the statistics do not depend on where they ran.  Problem conversion, warm starts and the result
+blocks shared with ``reentry`` come from :mod:`app.kinds.reentry_edge`.
 """
 from __future__ import annotations
 
 import math
 from typing import Literal
 
+import numpy as np
 from pydantic import Field, model_validator
 
-from app.kinds import reentry as rk
 from app.kinds.base import (
-    JobContext, KindSpec, Preset, RunOutcome, StrictModel, outcome_from_status, warm_start_from_job,
+    JobContext, KindSpec, Preset, RunOutcome, StrictModel, json_float, outcome_from_status, warm_start_from_job,
 )
+from app.kinds.reentry_edge import (guess_from_result, json_list, objective_block, reentry_result,
+                                    result_blocks, to_problem)
+from app.kinds.reentry_params import BETTS_HEAT_LIMIT_W_M2, ReentryParams, ReentryPathLimits
+from solvers.models.reentry_state import LATITUDE, STATES
 
 
-class UncertainParameter(StrictModel):
+class RobustUncertainParameter(StrictModel):
     mean: float = Field(0.0, ge=-0.5, le=0.5, description="Mean of the relative error", examples=[0.01])
     std: float = Field(0.01, ge=0.0, le=0.5, description="Standard deviation of the relative error",
                        examples=[0.01])
 
 
-class InitialStateStd(StrictModel):
+class RobustInitialStateStd(StrictModel):
     altitude_m: float = Field(0.0, ge=0, description="1-sigma entry altitude error", examples=[0.0])
     longitude_deg: float = Field(0.0, ge=0, description="1-sigma entry longitude error", examples=[0.0])
     latitude_deg: float = Field(0.0, ge=0, description="1-sigma entry latitude error", examples=[0.0])
@@ -35,30 +40,30 @@ class InitialStateStd(StrictModel):
     heading_deg: float = Field(0.0, ge=0, description="1-sigma entry heading error", examples=[0.0])
 
 
-class UncertaintyParams(StrictModel):
-    cd: UncertainParameter = Field(default_factory=lambda: UncertainParameter(mean=0.01, std=0.01),
+class RobustUncertainty(StrictModel):
+    cd: RobustUncertainParameter = Field(default_factory=lambda: RobustUncertainParameter(mean=0.01, std=0.01),
                                    description="s1 in CD = CD_N (1 + s1), Gaussian, constant over the flight "
                                    "(paper 001: N(0.01, 0.01^2))")
-    cl: UncertainParameter = Field(default_factory=lambda: UncertainParameter(mean=-0.01, std=0.01),
+    cl: RobustUncertainParameter = Field(default_factory=lambda: RobustUncertainParameter(mean=-0.01, std=0.01),
                                    description="s2 in CL = CL_N (1 + s2) (paper 001: N(-0.01, 0.01^2))")
-    initial_state_std: InitialStateStd | None = Field(None, description="Optional independent Gaussian "
+    initial_state_std: RobustInitialStateStd | None = Field(None, description="Optional independent Gaussian "
                                                       "entry-state dispersions (null: exact entry state, "
                                                       "as in paper 001)")
 
 
-class SigmaLimits(StrictModel):
+class RobustSigmaLimits(StrictModel):
     altitude_m: float | None = Field(4500.0, gt=0, description="Limit on sigma(h_f) (null: none)",
                                      examples=[4500.0])
     speed_mps: float | None = Field(250.0, gt=0, description="Limit on sigma(v_f)", examples=[250.0])
     flight_path_deg: float | None = Field(3.0, gt=0, description="Limit on sigma(gamma_f)", examples=[3.0])
 
 
-class RobustParams(StrictModel):
+class RobustDesign(StrictModel):
     k_objective: float = Field(3.0, ge=0, le=10, description="kJ in max mu(lat_f) - kJ sigma(lat_f)",
                                examples=[3.0])
     k_constraint: float = Field(3.0, ge=0, le=10, description="kC in mu(q) + kC sigma(q) <= q_max",
                                 examples=[3.0])
-    sigma_limits: SigmaLimits = Field(default_factory=SigmaLimits, description="Terminal sigma limits")
+    sigma_limits: RobustSigmaLimits = Field(default_factory=RobustSigmaLimits, description="Terminal sigma limits")
     second_order: bool = Field(False, description="Add CADET's second-order mean term 0.5 tr(H P) in "
                                "the NLP (the reported CADET prediction always includes it)", examples=[False])
     heat_margin: float = Field(0.0, ge=0, lt=0.2, description="Extra relative margin on the robust "
@@ -67,7 +72,7 @@ class RobustParams(StrictModel):
                           "the robust heating limit is enforced at each of them", examples=[2])
 
 
-class MonteCarloParams(StrictModel):
+class RobustMonteCarlo(StrictModel):
     samples: int = Field(10000, ge=10, le=200000, description="Samples per design", examples=[10000])
     seed: int = Field(2020, ge=0, description="Seed; sample i always draws the same numbers", examples=[2020])
     chunk_size: int = Field(2500, ge=10, le=200000, description="Samples per chunk (unit of scale-out)",
@@ -76,18 +81,18 @@ class MonteCarloParams(StrictModel):
                           "on which path limits are checked", examples=[5])
 
 
-def _heat_limited_path() -> rk.PathLimits:
-    return rk.PathLimits(max_heat_rate_w_m2=rk.BETTS_HEAT_LIMIT_W_M2)
+def _heat_limited_path() -> ReentryPathLimits:
+    return ReentryPathLimits(max_heat_rate_w_m2=BETTS_HEAT_LIMIT_W_M2)
 
 
-class Params(rk.Params):
+class RobustReentryParams(ReentryParams):
     objective: Literal["max_crossrange"] = Field("max_crossrange", description="Paper 001 maximizes "
                                                  "mu(lat_f) - kJ sigma(lat_f); only max_crossrange", examples=["max_crossrange"])
-    path: rk.PathLimits = Field(default_factory=_heat_limited_path, description="Path limits; the "
+    path: ReentryPathLimits = Field(default_factory=_heat_limited_path, description="Path limits; the "
                                 "heating limit is required (paper 001's active constraint)")
-    uncertainty: UncertaintyParams = Field(default_factory=UncertaintyParams, description="Uncertain parameters")
-    robust: RobustParams = Field(default_factory=RobustParams, description="Robust design settings")
-    monte_carlo: MonteCarloParams = Field(default_factory=MonteCarloParams, description="Monte Carlo validation")
+    uncertainty: RobustUncertainty = Field(default_factory=RobustUncertainty, description="Uncertain parameters")
+    robust: RobustDesign = Field(default_factory=RobustDesign, description="Robust design settings")
+    monte_carlo: RobustMonteCarlo = Field(default_factory=RobustMonteCarlo, description="Monte Carlo validation")
 
     @model_validator(mode="after")
     def _robust_consistent(self):
@@ -118,28 +123,15 @@ PRESETS = [
            {}),
 ]
 
-_TERMINAL = (("altitude_m", 0, 1.0), ("longitude_deg", 1, None), ("latitude_deg", 2, None),
-             ("speed_mps", 3, 1.0), ("flight_path_deg", 4, None), ("heading_deg", 5, None))
-_SOLVER_TERMINAL = ("altitude_m", "longitude_rad", "latitude_rad", "speed_mps", "flight_path_rad", "heading_rad")
-
-
-def _f(x) -> float:
-    x = float(x)
-    return x if math.isfinite(x) else 0.0
-
-
-def _problem(params: Params):
-    import numpy as np
-
+def _problem(params: RobustReentryParams):
     from solvers import robust_reentry as rr
 
-    base = rk._problem(params)
+    base = to_problem(params)
     unc = params.uncertainty
     x0_std = None
     if unc.initial_state_std is not None:
         s = unc.initial_state_std
-        x0_std = (s.altitude_m, math.radians(s.longitude_deg), math.radians(s.latitude_deg), s.speed_mps,
-                  math.radians(s.flight_path_deg), math.radians(s.heading_deg))
+        x0_std = tuple(c.from_api(getattr(s, c.api_name)) for c in STATES)
         if not np.any(np.asarray(x0_std) > 0):
             x0_std = None
     r = params.robust
@@ -156,96 +148,95 @@ def _problem(params: Params):
 
 
 def _mc_block(summary: dict, prediction, objective_k: float) -> dict:
-    """One design's Monte Carlo statistics in API units, CADET's prediction side by side."""
-    import numpy as np
-
+    """One design's Monte Carlo statistics in API units, CADET's prediction side by side, and
+    the plots' envelope, sample traces and terminal samples."""
     out: dict = {"samples": int(summary["samples"]), "failed_samples": int(summary["failed_samples"])}
     if "distribution" in summary:  # which workers computed which chunks (fanned-out runs)
         out["distribution"] = summary["distribution"]
     terminal = {}
-    for (name, i, _), sname in zip(_TERMINAL, _SOLVER_TERMINAL):
-        f = 1.0 if name in ("altitude_m", "speed_mps") else 180.0 / math.pi
-        st = summary["terminal"][sname]
-        terminal[name] = {"mean": _f(st["mean"] * f), "std": _f(st["std"] * f),
-                          "cadet_mean": _f(prediction.mean[i, -1] * f),
-                          "cadet_std": _f(prediction.sigma[i, -1] * f)}
-        sd = prediction.sigma[i, -1] * f
-        terminal[name]["mean_difference_in_sigma"] = _f((st["mean"] * f - prediction.mean[i, -1] * f) / sd) if sd > 0 else 0.0
+    for i, c in enumerate(STATES):
+        st = summary["terminal"][c.name]
+        mean, std = c.to_api(st["mean"]), c.to_api(st["std"])
+        cadet_mean, cadet_std = c.to_api(prediction.mean[i, -1]), c.to_api(prediction.sigma[i, -1])
+        terminal[c.api_name] = {"mean": json_float(mean), "std": json_float(std),
+                                "cadet_mean": json_float(cadet_mean), "cadet_std": json_float(cadet_std),
+                                "mean_difference_in_sigma": json_float((mean - cadet_mean) / cadet_std)
+                                if cadet_std > 0 else 0.0}
     out["terminal"] = terminal
     lat = terminal["latitude_deg"]
     out["objective"] = {"name": "latitude_deg", "mean": lat["mean"], "std": lat["std"],
-                        "mean_minus_k_std": _f(lat["mean"] - objective_k * lat["std"]),
+                        "mean_minus_k_std": None if lat["mean"] is None or lat["std"] is None
+                        else json_float(lat["mean"] - objective_k * lat["std"]),
                         "cadet_mean": lat["cadet_mean"], "cadet_std": lat["cadet_std"]}
-    within = {}
-    for sname, bands in summary["within"].items():
-        api = {"altitude_m": "altitude_m", "speed_mps": "speed_mps", "flight_path_rad": "flight_path_deg"}[sname]
-        within[api] = {f"within_required_pm_{b}": _f(v) for b, v in bands.items()}
-    out["terminal_within_required"] = within
+    by_name = {c.name: c for c in STATES}
+    out["terminal_within_required"] = {
+        by_name[q].api_name: {f"within_required_pm_{b}": json_float(v) for b, v in bands.items()}
+        for q, bands in summary["within"].items()}
     for name, pc in summary["path"].items():
-        out[f"{name}_kept_fraction"] = _f(pc["kept_fraction"])
-        out[f"{name}_kept_fraction_nodes"] = _f(pc["kept_fraction_nodes"])
+        out[f"{name}_kept_fraction"] = json_float(pc["kept_fraction"])
+        out[f"{name}_kept_fraction_nodes"] = json_float(pc["kept_fraction_nodes"])
         unit = {"heat_rate": "_w_m2", "dynamic_pressure": "_pa", "load_factor": ""}.get(name, "")
-        out[f"{name}_worst{unit}"] = _f(pc["worst"]) if pc["worst"] is not None else None
-        out[f"{name}_limit{unit}"] = _f(pc["limit"])
-    out["cadet_heat_rate_mean_plus_k_sigma_max_w_m2"] = _f(np.max(prediction.heat_mean + objective_k * prediction.heat_sigma))
+        out[f"{name}_worst{unit}"] = json_float(pc["worst"]) if pc["worst"] is not None else None
+        out[f"{name}_limit{unit}"] = json_float(pc["limit"])
+    out["cadet_heat_rate_mean_plus_k_sigma_max_w_m2"] = json_float(
+        np.max(prediction.heat_mean + objective_k * prediction.heat_sigma))
+    if "envelope" in summary:
+        env = summary["envelope"]
+        out["envelope"] = {"t_s": json_list(env["t_s"]),
+                           **{q: {"mean": json_list(env[q]["mean"]), "std": json_list(env[q]["std"])}
+                              for q in env if q != "t_s"}}
+        out["sample_traces"] = {q: [json_list(row) for row in rows] for q, rows in summary["sample_traces"].items()}
+    if "terminal_samples" in summary:
+        out["terminal_samples"] = {by_name[q].api_name: json_list(by_name[q].to_api(np.asarray(v, float)))
+                                   for q, v in summary["terminal_samples"].items()}
     return out
 
 
-def _solution_view(sol, *, robust: bool):
-    """Adapter so the reentry kind's result builder serves the robust solution as well."""
-    from types import SimpleNamespace
-
-    return SimpleNamespace(x=sol.x, u_nodes_at_t=sol.u, objective_value=sol.x[2, -1], objective_name="max_crossrange",
-                           status=sol.status, tf=sol.tf, t=sol.t, heat_rate=sol.heat_rate, stages=sol.stages,
-                           notes=sol.notes, verification=sol.verification) if robust else sol
-
-
-def run(params: Params, ctx: JobContext) -> RunOutcome:
-    import numpy as np
-
+def run(params: RobustReentryParams, ctx: JobContext) -> RunOutcome:
     from solvers import robust_reentry as rr
-    from solvers.uncertainty import montecarlo as mc
 
     problem = _problem(params)
     guess = params.initial_guess.kind
     notes: list[str] = []
     if params.initial_guess.from_job:
         job = params.initial_guess.from_job
-        guess = warm_start_from_job(ctx, job, rk._guess_from_result, field="initial_guess.from_job",
+        guess = warm_start_from_job(ctx, job, guess_from_result, field="initial_guess.from_job",
                                     what="trajectory")
         notes.append(f"deterministic stage warm-started from job {job}")
     ctx.progress(0.0, "deterministic design (DO)")
     sol = rr.solve(problem, initial_guess=guess, on_progress=lambda f, m: ctx.progress(0.8 * f, m),
                    should_stop=ctx.should_stop)
     if not sol.status.ok:
-        partial = {"deterministic": rk._result(params, sol.deterministic), "stages": sol.stages}
+        partial = {"deterministic": reentry_result(sol.deterministic), "stages": sol.stages}
         return outcome_from_status(sol.status, partial)
 
-    result = rk._result(params, _solution_view(sol, robust=True))
     kj = problem.robust.k_objective
     pred = sol.robust_prediction
-    result["objective"] = {"name": "max_crossrange_robust", "value": _f(np.degrees(sol.objective_value)),
-                           "unit": "deg", "mean_latitude_deg": _f(np.degrees(pred.mean[2, -1])),
-                           "sigma_latitude_deg": _f(np.degrees(pred.sigma[2, -1])), "k_objective": _f(kj)}
+    lat = STATES[LATITUDE]
+    result = {"objective": {**objective_block(name="max_crossrange_robust", value=sol.objective_value, unit="rad"),
+                            "mean_latitude_deg": json_float(lat.to_api(pred.mean[LATITUDE, -1])),
+                            "sigma_latitude_deg": json_float(lat.to_api(pred.sigma[LATITUDE, -1])),
+                            "k_objective": json_float(kj)},
+              **result_blocks(trajectory=sol.trajectory, tf_s=sol.tf, status=sol.status, stages=sol.stages,
+                              notes=sol.notes, verification=sol.verification)}
     tr = result["trajectory"]
-    tr["heat_rate_sigma_w_m2"] = [_f(v) for v in pred.heat_sigma]
-    tr["altitude_sigma_m"] = [_f(v) for v in pred.sigma[0]]
-    tr["latitude_sigma_deg"] = [_f(v) for v in np.degrees(pred.sigma[2])]
-    tr["speed_sigma_mps"] = [_f(v) for v in pred.sigma[3]]
-    tr["flight_path_sigma_deg"] = [_f(v) for v in np.degrees(pred.sigma[4])]
-    result["final_sigma"] = {"altitude_m": _f(pred.sigma[0, -1]), "speed_mps": _f(pred.sigma[3, -1]),
-                             "flight_path_deg": _f(np.degrees(pred.sigma[4, -1])),
-                             "latitude_deg": _f(np.degrees(pred.sigma[2, -1]))}
-    det_res = rk._result(params, sol.deterministic)
+    tr["heat_rate_sigma_w_m2"] = json_list(pred.heat_sigma)
+    by_name = {c.name: (i, c) for i, c in enumerate(STATES)}
+    sigma_names = ("altitude_m", "latitude_rad", "speed_mps", "flight_path_rad")
+    for name in sigma_names:
+        i, c = by_name[name]
+        quantity, unit = c.api_name.rsplit("_", 1)
+        tr[f"{quantity}_sigma_{unit}"] = json_list(c.to_api(pred.sigma[i]))
+    result["final_sigma"] = {by_name[n][1].api_name: json_float(by_name[n][1].to_api(pred.sigma[by_name[n][0], -1]))
+                             for n in ("altitude_m", "speed_mps", "flight_path_rad", "latitude_rad")}
+    det_res = reentry_result(sol.deterministic)
     result["deterministic"] = {k: det_res[k] for k in ("objective", "tf_s", "final", "trajectory", "solver")}
 
     # CADET statistics reported side by side with the Monte Carlo use the second-order mean
     # (the first-order mean is off by about 0.2 sigma on this problem).
     mcp = params.monte_carlo
-    run_mc = getattr(ctx, "run_monte_carlo", None)
-    via = "workers" if run_mc is not None else "in-process"
     mc_out = {"samples": mcp.samples, "seed": mcp.seed, "chunk_size": mcp.chunk_size,
-              "substeps_per_interval": mcp.substeps, "executed": via}
+              "substeps_per_interval": mcp.substeps, "executed": "workers"}
     for i, (name, t, u) in enumerate((("deterministic", sol.deterministic.t, sol.deterministic.u_nodes_at_t),
                                       ("robust", sol.t, sol.u))):
         if ctx.should_stop():
@@ -253,10 +244,7 @@ def run(params: Params, ctx: JobContext) -> RunOutcome:
         ctx.progress(0.8 + 0.1 * i, f"Monte Carlo of the {name} design ({mcp.samples} samples)")
         p2 = rr.predict(problem, t=t, u=u, second_order=True)
         spec = rr.monte_carlo_spec(problem, t=t, u=u, cadet_sigma=p2.terminal_sigma, substeps=mcp.substeps)
-        if run_mc is not None:
-            summary = run_mc(spec, mcp.samples, mcp.seed, mcp.chunk_size)
-        else:
-            summary = mc.run_monte_carlo(spec, mcp.samples, mcp.seed, mcp.chunk_size)
+        summary = ctx.run_monte_carlo(spec, mcp.samples, mcp.seed, mcp.chunk_size)
         mc_out[name] = _mc_block(summary, p2, kj)
     result["monte_carlo"] = mc_out
     do_mc, ro_mc = mc_out["deterministic"], mc_out["robust"]
@@ -278,6 +266,6 @@ def run(params: Params, ctx: JobContext) -> RunOutcome:
     return outcome_from_status(sol.status, result)
 
 
-SPEC = KindSpec(kind="robust_reentry", params_model=Params, run=run, presets=PRESETS, time_limit_s=1800.0,
+SPEC = KindSpec(kind="robust_reentry", params_model=RobustReentryParams, run=run, presets=PRESETS, time_limit_s=1800.0,
                 summary="Robust reentry (paper 001): CADET mean/covariance propagation, mean - k sigma design, "
                         "Monte Carlo validation of the deterministic and robust controls")

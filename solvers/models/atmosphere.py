@@ -16,9 +16,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from solvers.constants import G0_MPS2
+
 # U.S. Standard Atmosphere 1976, layers below 86 km geometric (84.852 km geopotential).
 _R_AIR = 287.05287           # J/(kg K)
-_G0 = 9.80665                # m/s^2
 _RE_GEOPOT = 6356766.0       # m, Earth radius used for geopotential altitude
 _H_BASE = np.array([0.0, 11000.0, 20000.0, 32000.0, 47000.0, 51000.0, 71000.0, 84852.0])
 _LAPSE = np.array([-6.5e-3, 0.0, 1.0e-3, 2.8e-3, 0.0, -2.8e-3, -2.0e-3])
@@ -30,9 +31,9 @@ def _layer_bases():
         dh = _H_BASE[i + 1] - _H_BASE[i]
         tb, pb = t[-1], p[-1]
         if lapse == 0.0:
-            p.append(pb * np.exp(-_G0 * dh / (_R_AIR * tb)))
+            p.append(pb * np.exp(-G0_MPS2 * dh / (_R_AIR * tb)))
         else:
-            p.append(pb * ((tb + lapse * dh) / tb) ** (-_G0 / (_R_AIR * lapse)))
+            p.append(pb * ((tb + lapse * dh) / tb) ** (-G0_MPS2 / (_R_AIR * lapse)))
         t.append(tb + lapse * dh)
     return np.array(t), np.array(p)
 
@@ -86,11 +87,11 @@ def _layer_density(hg, i, xp):
     hg = xp.fmax(hg, lo) if hi is None else xp.fmin(xp.fmax(hg, lo), hi)
     dh = hg - lo
     if lapse == 0.0:
-        p = pb * xp.exp(-_G0 * dh / (_R_AIR * tb))
+        p = pb * xp.exp(-G0_MPS2 * dh / (_R_AIR * tb))
         t = tb
     else:
         t = tb + lapse * dh
-        p = pb * (t / tb) ** (-_G0 / (_R_AIR * lapse))
+        p = pb * (t / tb) ** (-G0_MPS2 / (_R_AIR * lapse))
     return p / (_R_AIR * t)
 
 
@@ -108,5 +109,5 @@ def _us1976_density(h, xp):
 
 def _layer_density_unclamped(hg, xp):
     t = _T_BASE[0] + _LAPSE[0] * xp.fmin(xp.fmax(hg, -5000.0), 0.0)
-    p = _P_BASE[0] * (t / _T_BASE[0]) ** (-_G0 / (_R_AIR * _LAPSE[0]))
+    p = _P_BASE[0] * (t / _T_BASE[0]) ** (-G0_MPS2 / (_R_AIR * _LAPSE[0]))
     return p / (_R_AIR * t)

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from solvers.constants import G0_MPS2
 from solvers.models import shuttle as sh
 from solvers.models.atmosphere import backend
 
@@ -108,7 +109,7 @@ def load_factor(x, u, p, xp=None, *, cd_scale=1.0, cl_scale=1.0):
     v = _rows(x, 6, xp)[3]
     rho, cl, cd = aero(x, u, p, xp, cd_scale=cd_scale, cl_scale=cl_scale)
     qs = 0.5 * rho * v ** 2 * p.area_m2
-    return qs * xp.sqrt(cl ** 2 + cd ** 2) / (p.mass_kg * sh.G0_MPS2)
+    return qs * xp.sqrt(cl ** 2 + cd ** 2) / (p.mass_kg * G0_MPS2)
 
 
 def stagnation_heat_integrand(x, p, xp=None):

@@ -26,7 +26,6 @@ SLUG_FT3_TO_KG_M3 = SLUG_TO_KG / FT3_TO_M3   # 515.3788...
 KG_M3_TO_SLUG_FT3 = 1.0 / SLUG_FT3_TO_KG_M3
 BTU_FT2_S_TO_W_M2 = 11356.5                  # value fixed by the spec: 70 BTU/ft^2/s = 794955 W/m^2
 DEG = math.pi / 180.0
-G0_MPS2 = 9.80665                            # standard gravity (load factor reference)
 
 
 @dataclass(frozen=True)

@@ -15,6 +15,12 @@ update).  Sample ``i`` always draws from the same random stream (block
 sample range over workers gives the statistics of one process.
 :func:`merge_chunks` folds a list of partials into the summary.
 
+For plots a model may name ``trace`` quantities (e.g. altitude, speed, heating rate): each chunk
+keeps their mean and ``M2`` at up to ``MAX_TRACE_TIMES`` node times (merged like the terminal
+moments: the envelope), their histories for the samples with index below ``MAX_TRACE_SAMPLES``
+and the ``sampled_terminal`` quantities of those below ``MAX_TERMINAL_SAMPLES``; chunks are merged
+in sample order, so the kept samples are the first ones whatever the split.
+
 Dynamics are named in the spec (``"model"``), resolved through a registry of
 factories so a worker in another process can rebuild them from the name and
 ``model_params``.
@@ -30,6 +36,9 @@ import numpy as np
 
 BLOCK = 256
 """Samples per random block: the granularity of the per-sample stream (not of the chunks)."""
+MAX_TRACE_TIMES = 200        # node times of the envelope and the sample traces
+MAX_TRACE_SAMPLES = 200      # samples whose trace histories are kept
+MAX_TERMINAL_SAMPLES = 2000  # samples whose sampled_terminal values are kept
 
 ArrayFn = Callable[..., np.ndarray]
 
@@ -48,6 +57,8 @@ class MCModel:
 
     ``rhs(x, u, s)``: x (nx, N), u (nu, N), s (ns, N) -> (nx, N).
     ``terminal(x)``: dict of named terminal quantities, each (N,).
+    ``trace(x, u, s)``: optional dict of named quantities, each (N,), recorded over time for plots;
+    ``sampled_terminal``: names of ``terminal`` quantities kept per sample for plots.
     """
 
     nx: int
@@ -56,13 +67,15 @@ class MCModel:
     rhs: ArrayFn
     terminal: Callable[[np.ndarray], dict[str, np.ndarray]]
     path: dict[str, PathConstraint] = field(default_factory=dict)
+    trace: Callable[..., dict[str, np.ndarray]] | None = None
+    sampled_terminal: tuple[str, ...] = ()
 
 
 _REGISTRY: dict[str, Callable[[dict], MCModel]] = {}
 _LAZY = {
     # Resolved on first use so that importing this module stays cheap and a worker
     # needs nothing but the name.
-    "shuttle_reentry": "solvers.robust_reentry:monte_carlo_model",
+    "shuttle_reentry": "solvers.robust_reentry_mc:monte_carlo_model",
 }
 
 
@@ -166,6 +179,13 @@ def _merge_moments(a: dict, b: dict) -> dict:
     return {"n": n, "mean": mean, "m2": m2}
 
 
+def trace_nodes(n_nodes: int) -> np.ndarray:
+    """Indices of the node times the envelope is kept at: all of them up to ``MAX_TRACE_TIMES``."""
+    if n_nodes <= MAX_TRACE_TIMES:
+        return np.arange(n_nodes)
+    return np.unique(np.linspace(0, n_nodes - 1, MAX_TRACE_TIMES).round().astype(int))
+
+
 def simulate_chunk(spec: dict, seed: int, start_index: int, count: int) -> dict:
     """Simulate samples ``start_index .. start_index+count-1`` and return mergeable partial statistics.
 
@@ -181,8 +201,19 @@ def simulate_chunk(spec: dict, seed: int, start_index: int, count: int) -> dict:
     names = list(model.path)
     worst_fine = {nm: np.full(count, -np.inf) for nm in names}
     worst_node = {nm: np.full(count, -np.inf) for nm in names}
+    t_nodes = np.asarray(spec["t_nodes"], float)
+    kept_nodes = trace_nodes(t_nodes.size) if model.trace is not None else np.arange(0)
+    row_of_node = {int(node): row for row, node in enumerate(kept_nodes)}
+    traces: dict[str, np.ndarray] = {}
 
     def on_step(k, j, x, u):
+        node = 0 if j == 0 else (k + 1 if j == substeps else -1)
+        row = row_of_node.get(node)
+        if row is not None:
+            for q, v in model.trace(x, u, s).items():
+                if q not in traces:
+                    traces[q] = np.full((kept_nodes.size, count), np.nan)
+                traces[q][row] = v
         for nm in names:
             c = model.path[nm].fn(x, u, s)
             c = np.where(np.isfinite(c), c, np.inf)
@@ -213,7 +244,42 @@ def simulate_chunk(spec: dict, seed: int, start_index: int, count: int) -> dict:
             "worst": float(np.max(worst_fine[nm], initial=-np.inf)) if count else None,
             "limit": float(lim),
         }
+    if model.trace is not None:
+        out["trace"] = _trace_partial(traces, ok, t_nodes[kept_nodes], start_index)
+    first = max(0, min(count, MAX_TERMINAL_SAMPLES - start_index))
+    out["terminal_samples"] = {q: np.asarray(term[q], float)[:first].tolist() for q in model.sampled_terminal}
     return out
+
+
+def _trace_partial(traces: dict[str, np.ndarray], ok: np.ndarray, t_s: np.ndarray, start_index: int) -> dict:
+    """Per trace quantity: moments over the finite samples at each kept time, and the histories
+    of the samples with index below ``MAX_TRACE_SAMPLES`` (NaN where a sample failed)."""
+    first = max(0, min(ok.size, MAX_TRACE_SAMPLES - start_index))
+    n = int(ok.sum())
+    moments, histories = {}, {}
+    for q, v in traces.items():
+        good = v[:, ok]
+        mean = good.mean(axis=1) if n else np.zeros(v.shape[0])
+        moments[q] = {"mean": mean.tolist(), "m2": ((good - mean[:, None]) ** 2).sum(axis=1).tolist()}
+        histories[q] = v[:, :first].T.tolist()
+    return {"t_s": t_s.tolist(), "n": n, "moments": moments, "samples": histories}
+
+
+def _merge_traces(parts: list[dict]) -> tuple[dict, dict]:
+    """The envelope (mean, std per kept time) and the first samples' histories, from chunk traces."""
+    envelope: dict = {"t_s": parts[0]["t_s"]}
+    histories: dict = {}
+    for q in parts[0]["moments"]:
+        acc = None
+        for p in parts:
+            mom = {"n": p["n"], "mean": np.asarray(p["moments"][q]["mean"], float),
+                   "m2": np.asarray(p["moments"][q]["m2"], float)}
+            acc = mom if acc is None else _merge_moments(acc, mom)
+        std = np.sqrt(acc["m2"] / (acc["n"] - 1)) if acc["n"] > 1 else np.zeros_like(acc["mean"])
+        ones = np.ones(len(envelope["t_s"]))  # all samples failed: the moments are scalars
+        envelope[q] = {"mean": (acc["mean"] * ones).tolist(), "std": (std * ones).tolist()}
+        histories[q] = [row for p in parts for row in p["samples"][q]][:MAX_TRACE_SAMPLES]
+    return envelope, histories
 
 
 def merge_chunks(chunks: list[dict]) -> dict:
@@ -241,6 +307,13 @@ def merge_chunks(chunks: list[dict]) -> dict:
             "worst": float(w) if w is not None and math.isfinite(w) else None,
             "limit": chunks[0]["path"][nm]["limit"],
         }
+    # Chunks come in sample order (run_monte_carlo, worker.fanout), so these are the first samples.
+    if all("trace" in c for c in chunks):
+        summary["envelope"], summary["sample_traces"] = _merge_traces([c["trace"] for c in chunks])
+    if chunks[0].get("terminal_samples"):
+        summary["terminal_samples"] = {
+            q: [v for c in chunks for v in c["terminal_samples"][q]][:MAX_TERMINAL_SAMPLES]
+            for q in chunks[0]["terminal_samples"]}
     return summary
 
 

@@ -113,9 +113,8 @@ def test_time_limits_come_from_each_kind_and_the_env_overrides_them(monkeypatch)
         Settings()
 
 
-# Titles still shared while engineer E renames the reentry family's models (issue 12, part A:
-# reentry and robust_reentry both call theirs "Params"). Empty it, never add to it.
-PENDING_SCHEMA_RENAMES = {"Params"}
+# Titles still shared while a rename is under way. Empty it, never add to it.
+PENDING_SCHEMA_RENAMES: set[str] = set()
 
 
 def test_every_schema_has_a_unique_meaningful_title():

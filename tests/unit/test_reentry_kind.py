@@ -4,7 +4,8 @@ import json
 import pytest
 from pydantic import ValidationError
 
-from app.kinds.reentry import PRESETS, SPEC, Params, run
+from app.kinds.reentry import PRESETS, SPEC, run
+from app.kinds.reentry_params import ReentryParams as Params
 from app.params import deep_merge
 from tests.support import RecordingContext
 

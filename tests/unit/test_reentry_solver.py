@@ -47,8 +47,8 @@ def test_repropagation_detects_a_wrong_trajectory(crossrange):
     s = crossrange
     bad_u = s.u.copy()
     bad_u[1] += 5 * DEG                      # different bank profile
-    from solvers.reentry import _rhs_numpy
-    ver = repropagate(rhs=_rhs_numpy(sh.SHUTTLE), x0=sh.BETTS_INITIAL_STATE, t_nodes=s.t,
+    from solvers.reentry import rhs_numpy
+    ver = repropagate(rhs=rhs_numpy(sh.SHUTTLE), x0=sh.BETTS_INITIAL_STATE, t_nodes=s.t,
                       x_nodes=s.x, u_nodes=bad_u, control="linear")
     assert abs(ver.final_difference[2]) / DEG > 0.1
 

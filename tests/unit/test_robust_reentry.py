@@ -15,6 +15,7 @@ from scipy.integrate import solve_ivp
 from solvers import robust_reentry as rr
 from solvers.common import Outcome
 from solvers.models import reentry_dynamics as dyn
+from solvers.models.reentry_state import STATE_NAMES
 from solvers.uncertainty import montecarlo as mc
 
 pytestmark = pytest.mark.slow
@@ -91,7 +92,7 @@ def test_robust_design_halves_latitude_spread_and_recentres_terminal_means(monte
 @pytest.mark.parametrize("design", ["do", "ro"])
 def test_cadet_second_order_matches_monte_carlo(monte_carlo, design):
     _, pred, summary = monte_carlo[design]
-    for i, q in enumerate(rr.TERMINAL_NAMES):
+    for i, q in enumerate(STATE_NAMES):
         st = summary["terminal"][q]
         sd = pred.sigma[i, -1]
         assert abs(st["mean"] - pred.mean[i, -1]) < 0.05 * sd, q
@@ -118,7 +119,7 @@ def test_step_doubling_changes_nothing_reported(monte_carlo):
     b = mc.run_monte_carlo({**spec, "substeps": 10}, 1000, 5)
     assert a["path"]["heat_rate"]["kept_fraction"] == b["path"]["heat_rate"]["kept_fraction"]
     assert a["within"] == b["within"]
-    for q in rr.TERMINAL_NAMES:
+    for q in STATE_NAMES:
         assert abs(a["terminal"][q]["mean"] - b["terminal"][q]["mean"]) < 1e-3 * a["terminal"][q]["std"]
 
 

@@ -1,0 +1,178 @@
+"""The reentry family's public edge: parameters to a solver problem, a stored result to a warm
+start, and the result blocks both ``reentry`` and ``robust_reentry`` report.
+
+Radians in the solver become degrees here, by the state declaration
+(:mod:`solvers.models.reentry_state`: ``latitude_rad`` is ``latitude_deg`` at the API); every
+number goes through :func:`app.kinds.base.json_float` (non-finite is ``null``).  Heavy solver
+modules are imported inside the functions so the API process starts without CasADi.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from app.kinds.base import json_float
+from app.kinds.reentry_params import ReentryParams
+from solvers.models.reentry_state import CONTROLS, STATES, Trajectory
+
+MAX_DENSE_POINTS = 500   # points of the verification's dense trajectory kept in a result
+VERIFICATION_METHOD = "scipy DOP853, rtol 1e-10, controls interpolated as in the transcription"
+
+
+def json_list(values) -> list:
+    """A 1-D array as a JSON list (non-finite: null)."""
+    return [json_float(v) for v in np.asarray(values, float).ravel()]
+
+
+def to_problem(params: ReentryParams):
+    """The :class:`solvers.reentry.ReentryProblem` of validated parameters (degrees to radians)."""
+    import dataclasses
+
+    from solvers import reentry as rs
+    from solvers.models import shuttle as sh
+    from solvers.models.atmosphere import Atmosphere
+
+    v = params.vehicle
+    over = {k: val for k, val in {"mass_kg": v.mass_kg, "area_m2": v.area_m2,
+                                  "cl_coeffs": tuple(v.cl_coeffs) if v.cl_coeffs else None,
+                                  "cd_coeffs": tuple(v.cd_coeffs) if v.cd_coeffs else None}.items()
+            if val is not None}
+    if params.atmosphere == "us1976":
+        over["atmosphere"] = Atmosphere(kind="us1976")
+    vehicle = dataclasses.replace(sh.SHUTTLE, rotating_earth=params.rotating_earth, **over)
+    s0, t = params.initial_state, params.terminal
+    terminal = {c.name: None if getattr(t, c.api_name) is None else c.from_api(getattr(t, c.api_name))
+                for c in STATES}
+    return rs.ReentryProblem(
+        vehicle=vehicle,
+        initial_state=tuple(c.from_api(getattr(s0, c.api_name)) for c in STATES),
+        terminal=rs.Terminal(**terminal),
+        objective=params.objective,
+        alpha_bounds_rad=tuple(map(math.radians, params.bounds.alpha_deg)),
+        bank_bounds_rad=tuple(map(math.radians, params.bounds.bank_deg)),
+        max_heat_rate_w_m2=params.path.max_heat_rate_w_m2,
+        max_dynamic_pressure_pa=params.path.max_dynamic_pressure_pa,
+        max_load_factor=params.path.max_load_factor,
+        path_enforcement=params.path.enforcement,
+        intervals=params.grid.intervals, control=params.grid.control, substeps=params.grid.substeps)
+
+
+def _from_api(component, values) -> np.ndarray:
+    values = np.asarray(values, float)   # null (a non-finite value) becomes NaN
+    return np.radians(values) if component.is_angle else values
+
+
+def guess_from_result(result: dict):
+    """A :class:`solvers.reentry.InitialGuess` from a stored reentry (or robust) result's trajectory.
+
+    Raises ``KeyError``/``ValueError`` when the result has no usable time series.
+    """
+    from solvers.reentry import InitialGuess
+
+    tr = result["trajectory"]
+    t = np.asarray(tr["t_s"], float)
+    x = np.vstack([_from_api(c, tr[c.api_name]) for c in STATES])
+    u = np.vstack([_from_api(c, tr[c.api_name]) for c in CONTROLS])
+    if t.size < 2 or not np.all(np.diff(t) > 0) or not np.all(np.isfinite(x)):
+        raise ValueError("trajectory is not a usable time series")
+    return InitialGuess(t=t, x=x, u=u)
+
+
+# --- result blocks -------------------------------------------------------------------------------
+def objective_block(*, name: str, value: float, unit: str) -> dict:
+    """The objective in API units: the solver's ``rad`` becomes ``deg``, other units are kept."""
+    if unit == "rad":
+        value, unit = math.degrees(value), "deg"
+    return {"name": name, "value": json_float(value), "unit": unit}
+
+
+def final_block(trajectory: Trajectory) -> dict:
+    """The final state by API name."""
+    order = ("altitude_m", "speed_mps", "flight_path_rad", "latitude_rad", "longitude_rad", "heading_rad")
+    by_name = {c.name: c for c in STATES}
+    return {by_name[n].api_name: json_float(by_name[n].to_api(trajectory.state(n)[-1])) for n in order}
+
+
+def trajectory_block(trajectory: Trajectory) -> dict:
+    """Time, states, controls and path quantities at the nodes, by API name."""
+    out = {"t_s": json_list(trajectory.t)}
+    for rows, comps in ((trajectory.x, STATES), (trajectory.u, CONTROLS)):
+        for row, c in zip(rows, comps):
+            out[c.api_name] = json_list(c.to_api(row))
+    for name, values in trajectory.path.items():
+        out[name] = json_list(values)
+    return out
+
+
+def solver_block(status, stages: list[dict]) -> dict:
+    """IPOPT's account of the solve (iterations and times summed over the stages)."""
+    return {"status": status.solver_status, "iterations": int(status.iterations),
+            "solve_time_s": json_float(status.solve_time_s), "build_time_s": json_float(status.build_time_s),
+            "max_constraint_violation": json_float(status.max_constraint_violation),
+            "cached_build": bool(status.details.get("solver_cached", False)),
+            "stages": [{k: (json_float(v) if isinstance(v, float) else v) for k, v in s.items()}
+                       for s in stages]}
+
+
+def _dense_trajectory(ver) -> dict:
+    """The verification's dense re-simulation, at most ``MAX_DENSE_POINTS`` points (for plots)."""
+    n = ver.t.size
+    keep = np.unique(np.linspace(0, n - 1, min(n, MAX_DENSE_POINTS)).round().astype(int))
+    out = {"t_s": json_list(ver.t[keep])}
+    for name in ("altitude_m", "speed_mps", "flight_path_rad", "latitude_rad", "longitude_rad"):
+        c = next(c for c in STATES if c.name == name)
+        out[c.api_name] = json_list(c.to_api(ver.x[STATES.index(c), keep]))
+    for name in ("heat_rate_w_m2", "dynamic_pressure_pa", "load_factor"):
+        if name in ver.path_values:
+            out[name] = json_list(np.asarray(ver.path_values[name])[..., keep])
+    return out
+
+
+def verification_block(ver, *, node_heat_rate, time_s: float) -> dict | None:
+    """The independent re-propagation (:mod:`solvers.verification`) in API units; None when not run."""
+    if ver is None:
+        return None
+    dfx, worst = ver.final_difference, ver.max_node_difference
+    out = {"method": VERIFICATION_METHOD}
+    for i, c in enumerate(STATES):
+        unit = "deg" if c.is_angle else c.name.rsplit("_", 1)[1]
+        out[f"final_{c.name.rsplit('_', 1)[0]}_diff_{unit}"] = json_float(c.to_api(dfx[i]))
+    for name in ("altitude_m", "latitude_rad"):
+        c = next(c for c in STATES if c.name == name)
+        unit = "deg" if c.is_angle else "m"
+        out[f"max_node_{name.rsplit('_', 1)[0]}_diff_{unit}"] = json_float(c.to_api(worst[STATES.index(c)]))
+    out.update({
+        "max_heat_rate_w_m2": json_float(ver.path_max["heat_rate_w_m2"]),
+        "max_heat_rate_t_s": json_float(ver.path_argmax_t["heat_rate_w_m2"]),
+        "max_heat_rate_nodes_w_m2": json_float(np.max(node_heat_rate)),
+        "max_dynamic_pressure_pa": json_float(ver.path_max["dynamic_pressure_pa"]),
+        "max_load_factor": json_float(ver.path_max["load_factor"]),
+        "dense_samples": int(ver.t.size), "ok": bool(ver.ok), "message": ver.message,
+        "time_s": json_float(time_s),
+        "trajectory": _dense_trajectory(ver),
+    })
+    return out
+
+
+def result_blocks(*, trajectory: Trajectory, tf_s: float, status, stages: list[dict], notes: list[str],
+                  verification) -> dict:
+    """The blocks every reentry-family result has besides its objective."""
+    return {
+        "tf_s": json_float(tf_s),
+        "final": final_block(trajectory),
+        "trajectory": trajectory_block(trajectory),
+        "solver": solver_block(status, stages),
+        "notes": list(notes),
+        "verification": verification_block(
+            verification, node_heat_rate=trajectory.path["heat_rate_w_m2"],
+            time_s=status.details.get("verification_time_s", 0.0)),
+    }
+
+
+def reentry_result(sol) -> dict:
+    """The ``reentry`` kind's result of a :class:`solvers.reentry.ReentrySolution`."""
+    return {"objective": objective_block(name=sol.objective_name, value=sol.objective_value,
+                                         unit=sol.objective_unit),
+            **result_blocks(trajectory=sol.trajectory, tf_s=sol.tf, status=sol.status, stages=sol.stages,
+                            notes=sol.notes, verification=sol.verification)}
