@@ -32,7 +32,15 @@ def _decay(params):
     return MCModel(nx=1, nu=1, ns=1, rhs=lambda x, u, s: -s[0] * x, terminal=lambda x: {"x": x[0]})
 
 
+def _traced_oscillator(params):
+    return MCModel(
+        nx=2, nu=1, ns=1, rhs=_oscillator_rhs, terminal=lambda x: {"pos": x[0], "vel": x[1]},
+        trace=lambda x, u, s: {"pos": x[0], "energy": 0.5 * x[1] ** 2 + 0.5 * K0 * (1.0 + s[0]) * x[0] ** 2},
+        sampled_terminal=("pos",))
+
+
 register_model("test_oscillator", _oscillator)
+register_model("test_traced_oscillator", _traced_oscillator)
 register_model("test_decay", _decay)
 
 
@@ -124,3 +132,39 @@ def test_samples_against_solve_ivp():
         sol = solve_ivp(lambda tt, y: _oscillator_rhs(y[:, None], [[np.interp(tt, t, U[0])]], s[:, i:i + 1])[:, 0],
                         (t[0], t[-1]), x0[:, i], method="DOP853", rtol=1e-11, atol=1e-12, max_step=0.1)
         np.testing.assert_allclose(xf[:, i], sol.y[:, -1], rtol=0, atol=1e-6)
+
+
+def test_envelope_and_samples_merge_across_chunks():
+    """The plots' envelope is the mean/std over all samples at each node, whatever the split; the
+    kept sample traces and terminal samples are the first ones, in sample order."""
+    from solvers.uncertainty import montecarlo as mc
+
+    spec = {**_osc_spec(4), "model": "test_traced_oscillator"}
+    one = merge_chunks([simulate_chunk(spec, 9, 0, 2500)])
+    parts = merge_chunks([simulate_chunk(spec, 9, a, n) for a, n in [(0, 150), (150, 1000), (1150, 1350)]])
+    env = one["envelope"]
+    assert len(env["t_s"]) == 41 and env["t_s"] == parts["envelope"]["t_s"]
+    for q in ("pos", "energy"):
+        for k in ("mean", "std"):
+            np.testing.assert_allclose(parts["envelope"][q][k], env[q][k], rtol=1e-10, atol=1e-14)
+    assert parts["sample_traces"] == one["sample_traces"]
+    assert len(one["sample_traces"]["pos"]) == mc.MAX_TRACE_SAMPLES and len(one["sample_traces"]["pos"][0]) == 41
+    assert parts["terminal_samples"] == one["terminal_samples"]
+    assert len(one["terminal_samples"]["pos"]) == mc.MAX_TERMINAL_SAMPLES
+    # The envelope at the last node is the terminal statistic; the traces start at the initial state.
+    assert env["pos"]["mean"][-1] == pytest.approx(one["terminal"]["pos"]["mean"], rel=1e-12)
+    assert env["pos"]["std"][-1] == pytest.approx(one["terminal"]["pos"]["std"], rel=1e-12)
+    traces = np.array(one["sample_traces"]["pos"])
+    x0, _ = mc.draw_samples(spec, 9, 0, mc.MAX_TRACE_SAMPLES, nx=2, ns=1)
+    np.testing.assert_allclose(traces[:, 0], x0[0], rtol=1e-15)
+    np.testing.assert_allclose(one["terminal_samples"]["pos"][:mc.MAX_TRACE_SAMPLES], traces[:, -1], rtol=1e-15)
+    # The spread starts at the initial dispersion (sigma 0.01) and changes along the flight.
+    assert env["pos"]["std"][0] == pytest.approx(0.01, rel=0.05) and max(env["pos"]["std"]) > 0.015
+
+
+def test_envelope_keeps_at_most_max_trace_times_nodes():
+    from solvers.uncertainty import montecarlo as mc
+
+    nodes = mc.trace_nodes(1001)
+    assert nodes.size <= mc.MAX_TRACE_TIMES and nodes[0] == 0 and nodes[-1] == 1000
+    assert np.array_equal(mc.trace_nodes(41), np.arange(41))

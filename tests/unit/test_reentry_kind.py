@@ -65,6 +65,13 @@ def test_betts_preset_result(betts):
     ver = res["verification"]
     assert abs(ver["final_latitude_diff_deg"]) < 0.01 and abs(ver["final_altitude_diff_m"]) < 30.48
     assert ver["max_heat_rate_w_m2"] >= max(tr["heat_rate_w_m2"]) * (1 - 1e-9)
+    dense = ver["trajectory"]   # the re-simulation kept for plots, downsampled
+    assert 100 < len(dense["t_s"]) <= 500 and len({len(v) for v in dense.values()}) == 1
+    assert dense["t_s"][0] == 0.0 and dense["t_s"][-1] == pytest.approx(res["tf_s"], rel=1e-12)
+    assert dense["latitude_deg"][-1] == pytest.approx(res["final"]["latitude_deg"] + ver["final_latitude_diff_deg"],
+                                                      abs=1e-9)
+    assert max(dense["heat_rate_w_m2"]) <= ver["max_heat_rate_w_m2"] * (1 + 1e-12)
+    assert max(dense["heat_rate_w_m2"]) == pytest.approx(ver["max_heat_rate_w_m2"], rel=0.01)
     fr = [f for f, _ in ctx.messages]
     assert fr == sorted(fr) and any("IPOPT iteration" in m for _, m in ctx.messages)
 
