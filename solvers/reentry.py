@@ -4,8 +4,9 @@ Problem: paper 000 (Qu Xiangju, "Application of direct multiple shooting to traj
 optimization", 1991), cases 1-4, and the Betts shuttle benchmark (Betts, *Practical Methods for
 Optimal Control*, 2nd ed., sec. 6.3: max final latitude, with and without the 70 BTU/ft^2/s
 heating limit).  Dynamics and vehicle: :mod:`solvers.models.reentry_dynamics`,
-:mod:`solvers.models.shuttle`; transcription: :mod:`solvers.transcription.multiple_shooting`;
-independent check: :mod:`solvers.verification`.
+:mod:`solvers.models.shuttle`; the state (names, units, scales, bounds):
+:mod:`solvers.models.reentry_state`; initial guesses: :mod:`solvers.reentry_guess`; transcription:
+:mod:`solvers.transcription.multiple_shooting`; independent check: :mod:`solvers.verification`.
 
 Objectives (all in SI/radians, minimized internally):
 ``max_crossrange`` (final latitude), ``max_downrange`` (final longitude), ``max_great_circle_range``
@@ -25,11 +26,12 @@ import numpy as np
 from solvers.common import Outcome, ProgressFn, SolveStatus, StopFn
 from solvers.models import reentry_dynamics as dyn
 from solvers.models import shuttle as sh
-from solvers.models.reentry_state import (ALPHA, ALTITUDE, BANK, LATITUDE, LONGITUDE, NU, NX,
-                                          SPEED, STATE_NAMES, STATES, U_SCALE, X_SCALE, Trajectory,
-                                          box_bounds)
-from solvers.transcription.multiple_shooting import (PathConstraint, ShootingProblem,
-                                                      Transcription, control_at, control_nodes)
+from solvers.models.reentry_state import (ALPHA, BANK, LATITUDE, LONGITUDE, NU, NX, STATE_NAMES, STATES,
+                                          U_SCALE, X_SCALE, Trajectory, box_bounds)
+from solvers.transcription.multiple_shooting import (PathConstraint, ShootingProblem, Transcription,
+                                                      control_at)
+from solvers.reentry_guess import (InitialGuess, linear_guess, on_grid, rhs_numpy,  # noqa: F401 (public here)
+                                   simulate_constant_controls)
 from solvers.verification import Verification, repropagate
 
 OBJECTIVES = ("max_crossrange", "max_downrange", "max_great_circle_range", "min_heat_load",
@@ -85,15 +87,6 @@ class ReentryProblem:
             raise ValueError(f"objective must be one of {OBJECTIVES}")
         if self.control not in ("linear", "constant"):
             raise ValueError("control must be 'linear' or 'constant'")
-
-
-@dataclass
-class InitialGuess:
-    """A guess on any time grid: ``t`` (N,), ``x`` (NX, N), ``u`` (NU, N), physical units."""
-
-    t: np.ndarray
-    x: np.ndarray
-    u: np.ndarray
 
 
 @dataclass
@@ -188,67 +181,6 @@ def _shooting_problem(problem: ReentryProblem, *, with_path: bool = True) -> Sho
         u_scale=U_SCALE, t_scale=T_SCALE, intervals=problem.intervals, control=problem.control,
         substeps=problem.substeps, mayer=mayer, lagrange=lagrange, objective_scale=scale,
         path=tuple(path), ipopt=dict(problem.ipopt))
-
-
-# --- numpy helpers ---------------------------------------------------------------------------
-def rhs_numpy(vehicle):
-    """Fast scalar right-hand side for the adaptive integrator: one compiled CasADi call
-    costs a few microseconds where the numpy expression of 6-vectors costs ~50."""
-    xs, us = ca.SX.sym("x", NX), ca.SX.sym("u", NU)
-    f = ca.Function("eom", [xs, us], [dyn.eom(xs, us, vehicle, ca)])
-
-    def rhs(x, u):
-        return f(x, u).full().ravel()
-    return rhs
-
-
-def simulate_constant_controls(problem: ReentryProblem, *, alpha_rad: float, bank_rad: float,
-                               t_max: float = 5000.0, dt: float = 5.0) -> InitialGuess:
-    """Fixed-step RK4 glide with constant controls until the terminal altitude or speed is reached."""
-    rhs = rhs_numpy(problem.vehicle)
-    u = np.array([alpha_rad, bank_rad])
-    x = np.asarray(problem.initial_state, float)
-    h_end = problem.terminal.altitude_m if problem.terminal.altitude_m is not None else 0.0
-    v_end = problem.terminal.speed_mps if problem.terminal.speed_mps is not None else 0.0
-    ts, xs = [0.0], [x]
-    t = 0.0
-    while t < t_max and x[ALTITUDE] > h_end and x[SPEED] > max(v_end, problem.min_speed_mps):
-        k1 = rhs(x, u)
-        k2 = rhs(x + 0.5 * dt * k1, u)
-        k3 = rhs(x + 0.5 * dt * k2, u)
-        k4 = rhs(x + dt * k3, u)
-        x = x + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-        t += dt
-        ts.append(t)
-        xs.append(x)
-    X = np.array(xs).T
-    return InitialGuess(t=np.array(ts), x=X, u=np.tile(u[:, None], (1, X.shape[1])))
-
-
-def linear_guess(problem: ReentryProblem, *, tf: float = 2000.0,
-                 alpha_rad: float = 17.0 * sh.DEG, bank_rad: float = -60.0 * sh.DEG) -> InitialGuess:
-    """States on straight lines from the initial state to the terminal values (free components:
-    a plausible end point), constant controls."""
-    x0 = np.asarray(problem.initial_state, float)
-    xf = problem.terminal.as_array()
-    default_end = np.array([sh.BETTS_TERMINAL["altitude_m"], x0[LONGITUDE] + 1.2, x0[LATITUDE] + 0.5,
-                            sh.BETTS_TERMINAL["speed_mps"], sh.BETTS_TERMINAL["flight_path_rad"], 0.0])
-    xf = np.where(np.isnan(xf), default_end, xf)
-    s = np.linspace(0.0, 1.0, 11)
-    X = x0[:, None] + (xf - x0)[:, None] * s[None, :]
-    U = np.tile(np.array([[alpha_rad], [bank_rad]]), (1, s.size))
-    return InitialGuess(t=s * tf, x=X, u=U)
-
-
-def _on_grid(guess: InitialGuess, m: int, control: str):
-    tf = float(guess.t[-1])
-    tau = np.linspace(0.0, 1.0, m + 1)
-    tg = np.asarray(guess.t, float) / tf
-    x = np.vstack([np.interp(tau, tg, row) for row in np.asarray(guess.x, float)])
-    nun = control_nodes(m, control)
-    tu = tau if control == "linear" else 0.5 * (tau[:-1] + tau[1:])
-    u = np.vstack([np.interp(tu, tg, row) for row in np.asarray(guess.u, float)])
-    return tf, x, u[:, :nun]
 
 
 def state_bounds(problem: ReentryProblem, m: int):
@@ -359,7 +291,7 @@ def solve(problem: ReentryProblem, *, initial_guess: InitialGuess | str | None =
         tr0 = Transcription(_shooting_problem(problem, with_path=False))
         build_time += 0.0 if tr0.was_cached else tr0.solver.build_time_s
         r0 = tr0.solve(p=p, x_lb=x_lb, x_ub=x_ub, u_lb=u_lb, u_ub=u_ub,
-                       tf_bounds=problem.tf_bounds_s, guess=_on_grid(guess, m, problem.control),
+                       tf_bounds=problem.tf_bounds_s, guess=on_grid(guess, m, problem.control),
                        on_progress=on_progress, should_stop=should_stop, progress_span=spans[0],
                        expected_iterations=40)
         stages.append({"stage": "without path limits", "status": r0.status.solver_status,
@@ -378,7 +310,7 @@ def solve(problem: ReentryProblem, *, initial_guess: InitialGuess | str | None =
     tr = Transcription(_shooting_problem(problem))
     build_time += 0.0 if tr.was_cached else tr.solver.build_time_s
     res = tr.solve(p=p, x_lb=x_lb, x_ub=x_ub, u_lb=u_lb, u_ub=u_ub,
-                   tf_bounds=problem.tf_bounds_s, guess=_on_grid(guess, m, problem.control),
+                   tf_bounds=problem.tf_bounds_s, guess=on_grid(guess, m, problem.control),
                    on_progress=on_progress, should_stop=should_stop, progress_span=spans[-1],
                    expected_iterations=40)
     stages.append({"stage": "full problem", "status": res.status.solver_status,

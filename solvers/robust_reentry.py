@@ -35,7 +35,7 @@ import casadi as ca
 import numpy as np
 
 from solvers import reentry as det
-from solvers.common import Outcome, ProgressFn, SolveStatus, StopFn
+from solvers.common import ProgressFn, SolveStatus, StopFn
 from solvers.models import reentry_dynamics as dyn
 from solvers.models import shuttle as sh
 from solvers.models.reentry_state import LATITUDE, NU, NX, U_SCALE, X_SCALE, Trajectory

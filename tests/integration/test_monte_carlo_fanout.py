@@ -24,5 +24,11 @@ def test_robust_monte_carlo_split_over_two_workers(service):
         assert sum(dist["computed_by"].values()) == 3
         # at least one chunk was computed by a worker other than the job's own process
         assert any(not who.startswith("job@") for who in dist["computed_by"]), dist
+        # the plots' envelope merged from the chunks agrees with the terminal statistics
+        env = block["envelope"]
+        assert env["speed_mps"]["mean"][-1] == pytest.approx(block["terminal"]["speed_mps"]["mean"], rel=1e-9)
+        assert env["speed_mps"]["std"][-1] == pytest.approx(block["terminal"]["speed_mps"]["std"], rel=1e-9)
+        assert len(block["sample_traces"]["altitude_m"]) == 200
+        assert len(block["terminal_samples"]["altitude_m"]) == 2000
     assert mc["robust"]["heat_rate_kept_fraction"] >= 0.99
     assert mc["deterministic"]["heat_rate_kept_fraction"] <= 0.01

@@ -29,6 +29,15 @@ def test_robust_max_crossrange_preset(service):
     assert lat_ro["std"] < 0.65 * lat_do["std"]
     assert lat_do["mean"] > lat_ro["mean"]
     assert any("node" in n for n in res["notes"])
+    # plot data: envelope on the nodes, the first 200 sample traces, terminal samples of all 400
+    env, traces = mc["robust"]["envelope"], mc["robust"]["sample_traces"]
+    assert env["t_s"] == pytest.approx(res["trajectory"]["t_s"], rel=1e-12)
+    assert env["altitude_m"]["mean"][-1] == pytest.approx(mc["robust"]["terminal"]["altitude_m"]["mean"], rel=1e-9)
+    assert env["heat_rate_w_m2"]["std"][0] == 0.0 < max(env["heat_rate_w_m2"]["std"])
+    assert len(traces["speed_mps"]) == 200 and {len(row) for row in traces["speed_mps"]} == {n}
+    ts = mc["robust"]["terminal_samples"]
+    assert len(ts["flight_path_deg"]) == 400 and abs(sum(ts["flight_path_deg"]) / 400 + 5.0) < 0.5
+    assert res["verification"]["trajectory"]["t_s"][-1] == pytest.approx(res["tf_s"], rel=1e-12)
 
 
 def test_robust_bad_params_are_422(service):
