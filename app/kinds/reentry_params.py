@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from typing import Literal
 
-from pydantic import Field, field_validator, model_validator
+from pydantic import Field, ValidationInfo, field_validator, model_validator
 
 from app.kinds.base import StrictModel
 from solvers.models import shuttle as sh
@@ -68,7 +68,8 @@ class ReentryTerminal(StrictModel):
                                      examples=[24384.0])
     speed_mps: float | None = Field(sh.BETTS_TERMINAL["speed_mps"], gt=0, description="Final speed (null: free)",
                                     examples=[762.0])
-    flight_path_deg: float | None = Field(_deg(sh.BETTS_TERMINAL["flight_path_rad"]), ge=-89, le=89, description="Final flight-path angle "
+    flight_path_deg: float | None = Field(_deg(sh.BETTS_TERMINAL["flight_path_rad"]), ge=-89, le=89,
+                                          description="Final flight-path angle "
                                           "(null: free)", examples=[-5.0])
     latitude_deg: float | None = Field(None, ge=-89, le=89, description="Final latitude (null: free)",
                                        examples=[32.0])
@@ -80,11 +81,13 @@ class ReentryTerminal(StrictModel):
 class ReentryInitialState(StrictModel):
     altitude_m: float = Field(sh.BETTS_INITIAL_STATE[ALTITUDE], gt=0, description="Entry altitude", examples=[79248.0])
     longitude_deg: float = Field(_deg(sh.BETTS_INITIAL_STATE[LONGITUDE]), description="Entry longitude", examples=[0.0])
-    latitude_deg: float = Field(_deg(sh.BETTS_INITIAL_STATE[LATITUDE]), ge=-89, le=89, description="Entry latitude", examples=[0.0])
+    latitude_deg: float = Field(_deg(sh.BETTS_INITIAL_STATE[LATITUDE]), ge=-89, le=89,
+                                description="Entry latitude", examples=[0.0])
     speed_mps: float = Field(sh.BETTS_INITIAL_STATE[SPEED], gt=0, description="Entry speed", examples=[7802.88])
-    flight_path_deg: float = Field(_deg(sh.BETTS_INITIAL_STATE[FLIGHT_PATH]), ge=-89, le=89, description="Entry flight-path angle",
-                                   examples=[-1.0])
-    heading_deg: float = Field(_deg(sh.BETTS_INITIAL_STATE[HEADING]), description="Entry heading from north", examples=[90.0])
+    flight_path_deg: float = Field(_deg(sh.BETTS_INITIAL_STATE[FLIGHT_PATH]), ge=-89, le=89,
+                                   description="Entry flight-path angle", examples=[-1.0])
+    heading_deg: float = Field(_deg(sh.BETTS_INITIAL_STATE[HEADING]), description="Entry heading from north",
+                               examples=[90.0])
 
 
 class ReentryVehicle(StrictModel):
@@ -105,26 +108,23 @@ def _interval(v: list[float], name: str) -> list[float]:
     return v
 
 
+_CONTROL_LIMITS_DEG = {"alpha_deg": 90.0, "bank_deg": 180.0}   # the widest bounds a user may set
+
+
 class ReentryControlBounds(StrictModel):
-    alpha_deg: list[float] = Field([_deg(v) for v in sh.BETTS_ALPHA_BOUNDS_RAD], description="Angle-of-attack bounds [lo, hi]",
-                                   examples=[[-90.0, 90.0]])
-    bank_deg: list[float] = Field([_deg(v) for v in sh.BETTS_BANK_BOUNDS_RAD], description="Bank-angle bounds [lo, hi]",
-                                  examples=[[-90.0, 1.0]])
+    alpha_deg: list[float] = Field([_deg(v) for v in sh.BETTS_ALPHA_BOUNDS_RAD],
+                                   description="Angle-of-attack bounds [lo, hi]", examples=[[-90.0, 90.0]])
+    bank_deg: list[float] = Field([_deg(v) for v in sh.BETTS_BANK_BOUNDS_RAD],
+                                  description="Bank-angle bounds [lo, hi]", examples=[[-90.0, 1.0]])
 
-    @field_validator("alpha_deg")
+    @field_validator("alpha_deg", "bank_deg")
     @classmethod
-    def _alpha(cls, v):
-        _interval(v, "alpha_deg")
-        if v[0] < -90 or v[1] > 90:
-            raise ValueError("alpha_deg must lie within [-90, 90]")
-        return v
-
-    @field_validator("bank_deg")
-    @classmethod
-    def _bank(cls, v):
-        _interval(v, "bank_deg")
-        if v[0] < -180 or v[1] > 180:
-            raise ValueError("bank_deg must lie within [-180, 180]")
+    def _within(cls, v, info: ValidationInfo):
+        name = info.field_name
+        _interval(v, name)
+        limit = _CONTROL_LIMITS_DEG[name]
+        if v[0] < -limit or v[1] > limit:
+            raise ValueError(f"{name} must lie within [-{limit:g}, {limit:g}]")
         return v
 
 

@@ -33,7 +33,7 @@ def test_robust_max_crossrange_preset(service):
     env, traces = mc["robust"]["envelope"], mc["robust"]["sample_traces"]
     assert env["t_s"] == pytest.approx(res["trajectory"]["t_s"], rel=1e-12)
     assert env["altitude_m"]["mean"][-1] == pytest.approx(mc["robust"]["terminal"]["altitude_m"]["mean"], rel=1e-9)
-    assert env["heat_rate_w_m2"]["std"][0] == 0.0 < max(env["heat_rate_w_m2"]["std"])
+    assert env["heat_rate_w_m2"]["std"][0] < 1e-6 < max(env["heat_rate_w_m2"]["std"])  # exact entry state
     assert len(traces["speed_mps"]) == 200 and {len(row) for row in traces["speed_mps"]} == {n}
     ts = mc["robust"]["terminal_samples"]
     assert len(ts["flight_path_deg"]) == 400 and abs(sum(ts["flight_path_deg"]) / 400 + 5.0) < 0.5
