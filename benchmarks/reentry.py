@@ -89,7 +89,7 @@ def main():
             solve(pr)
             warm = time.perf_counter() - t0
             st = s.status
-            print(f"{name:<34}{m:>5}{s.objective_value / DEG:>11.5f}{s.tf:>10.2f}{st.iterations:>6}"
+            print(f"{name:<34}{m:>5}{s.objective_value / DEG:>11.5f}{s.tf_s:>10.2f}{st.iterations:>6}"
                   f"{st.build_time_s:>9.2f}{st.solve_time_s:>9.2f}{cold:>9.2f}{cold / bt:>11.3f}"
                   f"{warm:>8.2f}{warm / bt:>10.3f}")
 

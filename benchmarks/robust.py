@@ -9,12 +9,14 @@ time, the way a naive Monte Carlo runs) is the baseline of the vectorized Monte 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import time
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
 from solvers import robust_reentry as rr
+from solvers import robust_reentry_mc
 from solvers.models import reentry_dynamics as dyn
 from solvers.uncertainty import montecarlo as mc
 
@@ -63,6 +65,12 @@ def main() -> None:
     mc.run_monte_carlo(spec, args.samples, 2020, chunk_size=2500)
     mc_time = time.perf_counter() - t0
     mc_rate = args.samples / mc_time
+    # The same run without the plots' envelope, sample traces and terminal samples: their cost.
+    mc.register_model("shuttle_reentry_untraced", lambda p: dataclasses.replace(
+        robust_reentry_mc.monte_carlo_model(p), trace=None, sampled_terminal=()))
+    t0 = time.perf_counter()
+    mc.run_monte_carlo({**spec, "model": "shuttle_reentry_untraced"}, args.samples, 2020, chunk_size=2500)
+    bare_time = time.perf_counter() - t0
 
     print(f"robust reentry benchmark (paper 001), {problem.base.intervals} intervals; timings on a shared, "
           f"loaded 2-core machine")
@@ -74,8 +82,10 @@ def main() -> None:
     print(f"{'solve_ivp DOP853 per sample (baseline)':44s} {ivp_rate:10.1f} {1.0:12.1f}")
     print(f"{'vectorized RK4, 5 steps/interval':44s} {mc_rate:10.1f} {mc_rate / ivp_rate:12.1f}"
           f"   ({args.samples} samples in {mc_time:.2f} s)")
+    print(f"{'  the same without plot data (envelope, traces)':44s} {args.samples / bare_time:10.1f} "
+          f"{args.samples / bare_time / ivp_rate:12.1f}   (plot data cost {100 * (mc_time / bare_time - 1):+.1f}%)")
     print()
-    print(f"tf DO {do.tf:.2f} s, RO {sol.tf:.2f} s; RO direct tf {sol_d.tf:.2f} s")
+    print(f"tf DO {do.tf_s:.2f} s, RO {sol.tf_s:.2f} s; RO direct tf {sol_d.tf_s:.2f} s")
 
 
 if __name__ == "__main__":

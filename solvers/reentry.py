@@ -95,7 +95,7 @@ class ReentrySolution:
     objective_name: str
     objective_value: float          # in objective_unit
     objective_unit: str             # "rad", "s" or the heat load's SI unit
-    tf: float
+    tf_s: float
     t: np.ndarray
     x: np.ndarray                   # (6, m+1)
     u: np.ndarray                   # (2, m+1) linear or (2, m) constant
@@ -351,6 +351,6 @@ def _solution(problem, tr, res, build_time, notes, stages, *, verify) -> Reentry
                              f"between them the re-propagated trajectory exceeds it by "
                              f"{100 * excess:.2f}% (worst {ver.path_max['heat_rate_w_m2']:.1f} W/m^2)")
     return ReentrySolution(status=status, objective_name=problem.objective, objective_value=value,
-                           objective_unit=unit, tf=res.tf, t=res.t, x=res.x, u=res.u, u_nodes_at_t=u_nodes,
+                           objective_unit=unit, tf_s=res.tf, t=res.t, x=res.x, u=res.u, u_nodes_at_t=u_nodes,
                            heat_rate=np.asarray(q, float), verification=ver, notes=notes,
                            stages=stages)

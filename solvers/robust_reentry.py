@@ -132,17 +132,18 @@ class Prediction:
 class RobustReentrySolution:
     status: SolveStatus
     deterministic: det.ReentrySolution
-    tf: float
+    tf_s: float
     t: np.ndarray
     x: np.ndarray                 # mean states (6, m+1)
     u: np.ndarray                 # (2, m+1)
-    objective_value: float        # mu(lat_f) - kJ sigma(lat_f), rad
+    objective_value: float        # mu(lat_f) - kJ sigma(lat_f), in objective_unit
     heat_rate: np.ndarray         # mean heating rate at the nodes, W/m^2
     robust_prediction: Prediction | None
     deterministic_prediction: Prediction | None
     verification: object | None   # nominal (s = mu_s) re-propagation, solvers.verification
     stages: list[dict] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    objective_unit: str = "rad"
 
     @property
     def trajectory(self) -> Trajectory:
@@ -273,7 +274,7 @@ def solve(problem: RobustReentryProblem, *, initial_guess=None, on_progress: Pro
                "sub_stage": s["stage"]} for s in do.stages]
     if not do.status.ok:
         status = dataclasses.replace(do.status, message=f"deterministic stage: {do.status.message}")
-        return RobustReentrySolution(status=status, deterministic=do, tf=do.tf, t=do.t, x=do.x, u=do.u,
+        return RobustReentrySolution(status=status, deterministic=do, tf_s=do.tf_s, t=do.t, x=do.x, u=do.u,
                                      objective_value=float("nan"), heat_rate=do.heat_rate,
                                      robust_prediction=None, deterministic_prediction=None,
                                      verification=None, stages=stages, notes=notes)
@@ -300,7 +301,7 @@ def solve(problem: RobustReentryProblem, *, initial_guess=None, on_progress: Pro
     # consistent with the matching conditions, only the terminal mean is off.  The DO nodes as
     # mean with this covariance leave O(1) covariance defects late in the flight, from which
     # IPOPT diverged.
-    guess = (do.tf, Zdo, u_do)
+    guess = (do.tf_s, Zdo, u_do)
     weights = [(tr1, 0.0, 0.0, False, (0.3, 0.6), "robust stage 1 (kJ = kC = 0, no sigma limits)"),
                (tr, rob.k_objective, rob.k_constraint, True, (0.6, 0.97), "robust stage 2 (full problem)")]
     if tr1 is None:
@@ -343,6 +344,6 @@ def solve(problem: RobustReentryProblem, *, initial_guess=None, on_progress: Pro
                      "aerodynamics); the difference to the CADET mean is the nonlinearity the "
                      "second-order term does not capture")
     return RobustReentrySolution(
-        status=status, deterministic=do, tf=res.tf, t=res.t, x=mean, u=res.u, objective_value=obj,
+        status=status, deterministic=do, tf_s=res.tf, t=res.t, x=mean, u=res.u, objective_value=obj,
         heat_rate=pred.heat_mean, robust_prediction=pred, deterministic_prediction=do_pred,
         verification=ver, stages=stages, notes=notes)

@@ -174,5 +174,5 @@ def reentry_result(sol) -> dict:
     """The ``reentry`` kind's result of a :class:`solvers.reentry.ReentrySolution`."""
     return {"objective": objective_block(name=sol.objective_name, value=sol.objective_value,
                                          unit=sol.objective_unit),
-            **result_blocks(trajectory=sol.trajectory, tf_s=sol.tf, status=sol.status, stages=sol.stages,
+            **result_blocks(trajectory=sol.trajectory, tf_s=sol.tf_s, status=sol.status, stages=sol.stages,
                             notes=sol.notes, verification=sol.verification)}

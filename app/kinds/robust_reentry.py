@@ -213,11 +213,12 @@ def run(params: RobustReentryParams, ctx: JobContext) -> RunOutcome:
     kj = problem.robust.k_objective
     pred = sol.robust_prediction
     lat = STATES[LATITUDE]
-    result = {"objective": {**objective_block(name="max_crossrange_robust", value=sol.objective_value, unit="rad"),
+    result = {"objective": {**objective_block(name="max_crossrange_robust", value=sol.objective_value,
+                                            unit=sol.objective_unit),
                             "mean_latitude_deg": json_float(lat.to_api(pred.mean[LATITUDE, -1])),
                             "sigma_latitude_deg": json_float(lat.to_api(pred.sigma[LATITUDE, -1])),
                             "k_objective": json_float(kj)},
-              **result_blocks(trajectory=sol.trajectory, tf_s=sol.tf, status=sol.status, stages=sol.stages,
+              **result_blocks(trajectory=sol.trajectory, tf_s=sol.tf_s, status=sol.status, stages=sol.stages,
                               notes=sol.notes, verification=sol.verification)}
     tr = result["trajectory"]
     tr["heat_rate_sigma_w_m2"] = json_list(pred.heat_sigma)
@@ -249,7 +250,7 @@ def run(params: RobustReentryParams, ctx: JobContext) -> RunOutcome:
     result["monte_carlo"] = mc_out
     do_mc, ro_mc = mc_out["deterministic"], mc_out["robust"]
     result["notes"] = notes + list(sol.notes) + [
-        f"tf: deterministic {sol.deterministic.tf:.2f} s, robust {sol.tf:.2f} s (paper 001: 2200.1 / 2289.4 s)",
+        f"tf: deterministic {sol.deterministic.tf_s:.2f} s, robust {sol.tf_s:.2f} s (paper 001: 2200.1 / 2289.4 s)",
         f"heating limit kept over the whole flight (fine grid, {mcp.substeps} RK4 steps per interval): "
         f"DO {100 * do_mc['heat_rate_kept_fraction']:.2f}%, RO {100 * ro_mc['heat_rate_kept_fraction']:.2f}%; "
         f"at the NLP nodes only: DO {100 * do_mc['heat_rate_kept_fraction_nodes']:.2f}%, "

@@ -1,5 +1,6 @@
 """The reentry kind's API edge: parameter rules, presets, run() with a real job context."""
 import json
+import math
 
 import pytest
 from pydantic import ValidationError
@@ -123,3 +124,24 @@ def test_paper000_max_crossrange():
     assert out.status == "succeeded" and out.result["solver"]["status"] == "Solve_Succeeded"
     assert out.result["final"]["latitude_deg"] == pytest.approx(33.5133, abs=2e-3)
     assert out.result["tf_s"] == pytest.approx(1956.8, abs=1.0)
+
+
+def test_non_finite_numbers_become_null_not_zero():
+    """The one NaN policy (json_float) in the reentry family's result blocks."""
+    import numpy as np
+
+    from app.kinds.reentry_edge import final_block, objective_block, trajectory_block
+    from solvers.models.reentry_state import Trajectory
+
+    x = np.ones((6, 3))
+    x[2, -1] = np.nan
+    tr = Trajectory(t=np.array([0.0, 1.0, 2.0]), x=x, u=np.zeros((2, 3)),
+                    path={"heat_rate_w_m2": np.array([1.0, np.inf, 2.0])})
+    assert objective_block(name="max_crossrange", value=float("nan"), unit="rad") == {
+        "name": "max_crossrange", "value": None, "unit": "deg"}
+    assert objective_block(name="min_time", value=2000.0, unit="s")["value"] == 2000.0
+    assert final_block(tr)["latitude_deg"] is None and final_block(tr)["altitude_m"] == 1.0
+    block = trajectory_block(tr)
+    assert block["latitude_deg"] == [math.degrees(1.0), math.degrees(1.0), None]
+    assert block["heat_rate_w_m2"] == [1.0, None, 2.0]
+    json.dumps(block, allow_nan=False)
