@@ -14,7 +14,7 @@ import numpy as np
 
 from app.kinds.base import json_float
 from app.kinds.reentry_params import ReentryParams
-from solvers.models.reentry_state import CONTROLS, STATES, Trajectory
+from solvers.models.reentry_state import CONTROLS, STATE_INDEX, STATES, Trajectory
 
 MAX_DENSE_POINTS = 500   # points of the verification's dense trajectory kept in a result
 VERIFICATION_METHOD = "scipy DOP853, rtol 1e-10, controls interpolated as in the transcription"
@@ -90,8 +90,8 @@ def objective_block(*, name: str, value: float, unit: str) -> dict:
 def final_block(trajectory: Trajectory) -> dict:
     """The final state by API name."""
     order = ("altitude_m", "speed_mps", "flight_path_rad", "latitude_rad", "longitude_rad", "heading_rad")
-    by_name = {c.name: c for c in STATES}
-    return {by_name[n].api_name: json_float(by_name[n].to_api(trajectory.state(n)[-1])) for n in order}
+    comps = [STATES[STATE_INDEX[n]] for n in order]
+    return {c.api_name: json_float(c.to_api(trajectory.state(c.name)[-1])) for c in comps}
 
 
 def trajectory_block(trajectory: Trajectory) -> dict:
@@ -121,8 +121,8 @@ def _dense_trajectory(ver) -> dict:
     keep = np.unique(np.linspace(0, n - 1, min(n, MAX_DENSE_POINTS)).round().astype(int))
     out = {"t_s": json_list(ver.t[keep])}
     for name in ("altitude_m", "speed_mps", "flight_path_rad", "latitude_rad", "longitude_rad"):
-        c = next(c for c in STATES if c.name == name)
-        out[c.api_name] = json_list(c.to_api(ver.x[STATES.index(c), keep]))
+        i = STATE_INDEX[name]
+        out[STATES[i].api_name] = json_list(STATES[i].to_api(ver.x[i, keep]))
     for name in ("heat_rate_w_m2", "dynamic_pressure_pa", "load_factor"):
         if name in ver.path_values:
             out[name] = json_list(np.asarray(ver.path_values[name])[..., keep])
@@ -139,9 +139,9 @@ def verification_block(ver, *, node_heat_rate, time_s: float) -> dict | None:
         unit = "deg" if c.is_angle else c.name.rsplit("_", 1)[1]
         out[f"final_{c.name.rsplit('_', 1)[0]}_diff_{unit}"] = json_float(c.to_api(dfx[i]))
     for name in ("altitude_m", "latitude_rad"):
-        c = next(c for c in STATES if c.name == name)
-        unit = "deg" if c.is_angle else "m"
-        out[f"max_node_{name.rsplit('_', 1)[0]}_diff_{unit}"] = json_float(c.to_api(worst[STATES.index(c)]))
+        i = STATE_INDEX[name]
+        unit = "deg" if STATES[i].is_angle else "m"
+        out[f"max_node_{name.rsplit('_', 1)[0]}_diff_{unit}"] = json_float(STATES[i].to_api(worst[i]))
     out.update({
         "max_heat_rate_w_m2": json_float(ver.path_max["heat_rate_w_m2"]),
         "max_heat_rate_t_s": json_float(ver.path_argmax_t["heat_rate_w_m2"]),
