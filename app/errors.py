@@ -72,3 +72,15 @@ async def internal_error_handler(request: Request, exc: Exception) -> JSONRespon
     return JSONResponse(status_code=500, headers={"X-Request-ID": request_id},
                         content={"detail": "internal error; the service log has the details under this request id",
                                  "request_id": request_id})
+
+
+DATABASE_RETRY_AFTER_S = 5
+
+
+async def database_unavailable_handler(request: Request, exc: Exception) -> JSONResponse:
+    """The database did not answer (outage, restart, pool exhausted): 503 with Retry-After, never a 500.
+    Nothing was stored by the request; the address and the driver's text stay in the log."""
+    log.warning("database unavailable on %s %s: %s", request.method, request.url.path, type(exc).__name__)
+    return JSONResponse(status_code=503, headers={"Retry-After": str(DATABASE_RETRY_AFTER_S)},
+                        content={"detail": "the database is unavailable; nothing was stored, retry later",
+                                 "message": "the database is unavailable; retry later"})

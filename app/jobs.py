@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from datetime import datetime, timedelta, timezone
 
-from sqlalchemy import func, select, update
+from sqlalchemy import func, or_, select, update
 
 from app.broker import QUEUE_JOBS
 from app.db import Database
@@ -69,6 +69,10 @@ def create_job(db: Database, *, kind: str, params: dict, label: str | None, pres
                   progress=0.0, message="queued", attempts=1, cancel_requested=False,
                   idempotency_key=idempotency_key, request_hash=request_hash, created_at=utcnow(),
                   owner=owner, queue=queue)
+        # Marked as handed to the broker in the same INSERT (no second write per submission): if the
+        # publish then fails, mark_unpublished clears it; if the process dies in between, the
+        # re-publisher finds the job missing from the broker and sends it (app/recovery.py).
+        job.published_at = job.created_at
         s.add(job)
     return job, True
 
@@ -137,11 +141,28 @@ def request_cancel(db: Database, job_id: str) -> Job | None:
     return job
 
 
-def mark_publish_failed(db: Database, job_id: str, reason: str) -> None:
+def mark_unpublished(db: Database, job_id: str) -> None:
+    """The broker could not take the job's message: it stays queued, and the re-publisher sends it
+    as soon as the broker is back (never stored as failed: the job was accepted)."""
     with db.write() as s:
         s.execute(update(Job).where(Job.id == job_id, Job.status == "queued").values(
-            status="failed", finished_at=utcnow(), message="broker unreachable",
-            error={"code": "internal", "message": f"could not queue the job: {reason}"}))
+            published_at=None, message="queued; waiting for the broker (it will be published when it is back)"))
+
+
+def publish_candidates(db: Database, *, older_than_s: float) -> list[Job]:
+    """Queued jobs never published, or published more than ``older_than_s`` ago and still not claimed."""
+    cutoff = utcnow() - timedelta(seconds=older_than_s)
+    with db.read() as s:
+        return list(s.scalars(select(Job).where(
+            Job.status == "queued", or_(Job.published_at.is_(None), Job.published_at < cutoff))
+            .order_by(Job.created_at)))
+
+
+def mark_published(db: Database, job_ids: list[str]) -> None:
+    if not job_ids:
+        return
+    with db.write() as s:
+        s.execute(update(Job).where(Job.id.in_(job_ids), Job.status == "queued").values(published_at=utcnow()))
 
 
 @dataclass
@@ -152,12 +173,15 @@ class Claim:
     attempt: int
 
 
-def claim(db: Database, job_id: str, attempt: int, *, worker: str, max_attempts: int) -> Claim | None:
+def claim(db: Database, job_id: str, attempt: int, *, worker: str, max_attempts: int,
+          stale_after_s: float) -> Claim | None:
     """Move a job to ``running`` for the delivery holding token ``attempt``.
 
-    A delivery for the current token of a job that is already ``running`` is a
-    redelivery after its worker was lost (acks_late + reject_on_worker_lost): it
-    takes the job over with a new token, up to ``max_attempts``.
+    A second delivery of a job that is ``running`` with a fresh heartbeat is a
+    duplicate message (re-published, or delivered twice by the broker): it is
+    dropped and never takes the job over.  Only when the heartbeat is stale (its
+    worker died; acks_late + reject_on_worker_lost gave the message back) does
+    a delivery take the job over with a new token, up to ``max_attempts``.
     Returns None when this delivery must not run the job.
     """
     with db.write() as s:
@@ -168,12 +192,17 @@ def claim(db: Database, job_id: str, attempt: int, *, worker: str, max_attempts:
             _finish(job, "cancelled", error={"code": "cancelled", "message": "cancelled by request"},
                     message="cancelled")
             return None
+        now = utcnow()
         if job.status == "running":
+            beat = job.heartbeat_at
+            if beat is not None and beat.tzinfo is None:  # SQLite returns naive UTC
+                beat = beat.replace(tzinfo=timezone.utc)
+            if beat is not None and (now - beat).total_seconds() < stale_after_s:
+                return None  # alive elsewhere: a duplicate
             if job.attempts >= max_attempts:
                 _fail_worker_lost(job, max_attempts)
                 return None
             job.attempts += 1
-        now = utcnow()
         job.status = "running"
         job.started_at = job.started_at or now
         job.heartbeat_at = now
@@ -230,13 +259,13 @@ def finish(db: Database, job_id: str, attempt: int, *, status: str, result: dict
         return True
 
 
-def reap_stale(db: Database, *, stale_after_s: float, max_attempts: int) -> list[tuple[str, int, str]]:
+def reap_stale(db: Database, *, stale_after_s: float, max_attempts: int) -> list[Job]:
     """Re-queue running jobs whose heartbeat is older than ``stale_after_s``.
 
-    Returns ``(job_id, attempt, kind)`` to publish; jobs out of attempts fail.
+    Returns the re-queued jobs (new attempt token) to publish; jobs out of attempts fail.
     """
     cutoff = utcnow() - timedelta(seconds=stale_after_s)
-    requeue: list[tuple[str, int, str]] = []
+    requeue: list[Job] = []
     with db.write() as s:
         stale = list(s.scalars(select(Job).where(Job.status == "running", Job.heartbeat_at < cutoff)))
         for job in stale:
@@ -246,5 +275,6 @@ def reap_stale(db: Database, *, stale_after_s: float, max_attempts: int) -> list
             job.attempts += 1
             job.status = "queued"
             job.message = f"re-queued: worker heartbeat lost (attempt {job.attempts}/{max_attempts})"
-            requeue.append((job.id, job.attempts, job.kind))
+            job.published_at = utcnow()
+            requeue.append(job)
     return requeue

@@ -3,9 +3,11 @@ from __future__ import annotations
 
 from fastapi import Depends, FastAPI
 from fastapi.exceptions import RequestValidationError
+from sqlalchemy.exc import DBAPIError, OperationalError
+from sqlalchemy.exc import TimeoutError as PoolTimeout
 
 from app.db import get_database
-from app.errors import internal_error_handler, validation_error_handler
+from app.errors import database_unavailable_handler, internal_error_handler, validation_error_handler
 from app.limits import reject_unsafe_text
 from app.settings import Settings, get_settings
 
@@ -30,6 +32,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                   max_body_size=settings.max_body_bytes, dependencies=[Depends(reject_unsafe_text)])
     app.add_exception_handler(RequestValidationError, validation_error_handler)
     app.add_exception_handler(Exception, internal_error_handler)
+    for exc_type in (OperationalError, DBAPIError, PoolTimeout):  # a database outage is a 503, not a 500
+        app.add_exception_handler(exc_type, database_unavailable_handler)
     app.state.settings = settings
     app.state.db = get_database(settings.database_url)
     app.state.celery = create_publisher(settings)

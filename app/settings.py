@@ -48,7 +48,11 @@ class Settings(BaseSettings):
     # the reaper re-queues a running job whose heartbeat is older than stale_after_s.
     heartbeat_interval_s: float = 2.0
     stale_after_s: float = 60.0
-    reaper_interval_s: float = 15.0
+    reaper_interval_s: float = Field(default=15.0, description="Period of the recovery loop (reaper, re-publisher)")
+    republish_after_s: float = Field(
+        default=30.0, description="A queued job published longer ago than this and missing from the broker is re-sent")
+    db_retry_max_s: float = Field(
+        default=30.0, description="Longest backoff of a worker retrying a delivery while the database is down")
     max_attempts: int = Field(default=3, ge=1, description="Deliveries of one job before it fails with worker_lost")
 
     # Caps that keep one request from exhausting the machine.

@@ -1,8 +1,10 @@
-"""Celery application factory for the worker: shared broker settings plus tasks and beat.
+"""Celery application factory for the worker: shared broker settings plus the tasks.
 
 The database is the truth; Celery only delivers ``(job_id, attempt)`` messages,
 so no result backend is configured.  The settings themselves live in
 ``app.broker`` so the API's producer and this consumer cannot drift apart.
+Recovery (the reaper and the re-publisher) is not scheduled here: it runs in
+``app.recovery``'s own loop, outside the job queues.
 """
 from __future__ import annotations
 
@@ -20,9 +22,6 @@ def create_celery(settings: Settings | None = None) -> Celery:
         # Jobs run in prefork children; recycle them now and then to bound memory
         # growth of long-lived numerical processes (CasADi caches, heyoka JIT).
         worker_max_tasks_per_child=200,
-        beat_schedule={
-            "reap-stale-jobs": {"task": "trajlab.reap", "schedule": settings.reaper_interval_s},
-        },
     )
     return app
 

@@ -1,14 +1,24 @@
-"""Celery tasks: deliver a job to its kind's ``run``, and reap jobs of dead workers.
+"""Celery tasks: deliver a job to its kind's ``run``; compute Monte Carlo chunks.
 
 Everything a test wants to exercise lives in :func:`execute_job` and in
-``app.jobs``; the task functions only bind them to Celery.
+``app.jobs``; the task functions only bind them to Celery.  Recovery (stale
+jobs, lost messages) is not a task: it runs in ``app.recovery``'s own loop, so a
+backlog in these queues never delays it.
+
+A delivery that cannot reach the database is never acknowledged as done: the
+task retries itself with backoff (a new message, same attempt token) until the
+database answers, and a finished job whose result cannot be stored yet keeps
+its result in memory and retries the write.
 """
 from __future__ import annotations
 
 import logging
 import socket
+import time
 
 from celery.exceptions import SoftTimeLimitExceeded
+from sqlalchemy.exc import DBAPIError, OperationalError
+from sqlalchemy.exc import TimeoutError as PoolTimeout
 
 from app import jobs, studies
 from app.db import Database, get_database
@@ -21,12 +31,27 @@ from worker.context import WorkerJobContext
 
 log = logging.getLogger("trajlab.worker")
 
+DB_ERRORS = (OperationalError, DBAPIError, PoolTimeout)
+
+
+class DatabaseUnavailable(Exception):
+    """The job could not be claimed because the database did not answer: deliver it again later."""
+
 
 def execute_job(db: Database, settings: Settings, job_id: str, attempt: int, *, worker: str) -> str | None:
-    """Claim, run and store one job. Returns the final status, or None if this delivery was stale."""
-    claim = jobs.claim(db, job_id, attempt, worker=worker, max_attempts=settings.max_attempts)
+    """Claim, run and store one job. Returns the final status, or None if this delivery was stale.
+
+    Raises :class:`DatabaseUnavailable` when the claim cannot reach the database.
+    """
+    try:
+        claim = jobs.claim(db, job_id, attempt, worker=worker, max_attempts=settings.max_attempts,
+                           stale_after_s=settings.stale_after_s)
+    except DB_ERRORS as exc:
+        raise DatabaseUnavailable(type(exc).__name__) from None
     if claim is None:
+        log.info("delivery of job %s attempt %d dropped (duplicate, stale or finished)", job_id, attempt)
         return None
+    log.info("job %s attempt %d started", job_id, claim.attempt)
     spec = KINDS[claim.kind]
     ctx = WorkerJobContext(db, claim, settings=settings, celery=celery_app)
     with ctx:
@@ -41,16 +66,36 @@ def execute_job(db: Database, settings: Settings, job_id: str, attempt: int, *, 
             outcome = RunOutcome("failed", error=_time_limit_error(settings, claim.kind))
         except Exception as exc:  # the job fails with a stored reason; the worker lives on
             log.exception("job %s crashed", job_id)
-            outcome = RunOutcome("failed", error={"code": "internal", "message": f"{type(exc).__name__}: {exc}"})
+            # the type only: the text of an arbitrary exception can carry paths and addresses
+            outcome = RunOutcome("failed", error={"code": "internal", "message": f"the solver raised "
+                                                  f"{type(exc).__name__}; the worker log has the details"})
     if outcome.status == "cancelled" and not ctx.cancel_requested:
         # The solver stopped because should_stop() saw the deadline, not a user.
         outcome = RunOutcome("failed", result=outcome.result, error=_time_limit_error(settings, claim.kind))
     message = {"succeeded": "done", "cancelled": "cancelled"}.get(outcome.status) or (outcome.error or {}).get("message", "failed")
-    jobs.finish(db, job_id, claim.attempt, status=outcome.status, result=outcome.result,
-                error=outcome.error, message=message[:2000])
+    _store(db, settings, job_id, claim.attempt, outcome, message[:2000])
     for nxt in studies.on_point_finished(db, job_id):  # a continuation study's next point
         publish_job(celery_app, settings, job_id=nxt.id, attempt=nxt.attempts, kind=nxt.kind, queue=nxt.queue)
     return outcome.status
+
+
+def _store(db: Database, settings: Settings, job_id: str, attempt: int, outcome: RunOutcome, message: str) -> None:
+    """Store the outcome, retrying through a database outage for up to ``stale_after_s``: after that
+    the reaper would hand the job to another worker anyway, and this result is dropped."""
+    deadline = time.monotonic() + settings.stale_after_s
+    delay = 0.5
+    while True:
+        try:
+            jobs.finish(db, job_id, attempt, status=outcome.status, result=outcome.result,
+                        error=outcome.error, message=message)
+            return
+        except DB_ERRORS as exc:
+            if time.monotonic() + delay > deadline:
+                log.error("job %s: result not stored, database unreachable (%s); the reaper will re-run it",
+                          job_id, type(exc).__name__)
+                return
+            time.sleep(delay)
+            delay = min(2 * delay, 5.0)
 
 
 def _time_limit_error(settings: Settings, kind: str) -> dict:
@@ -59,11 +104,16 @@ def _time_limit_error(settings: Settings, kind: str) -> dict:
                        f"(TRAJLAB_TIME_LIMIT_{kind.upper()}_S)"}
 
 
-@celery_app.task(name="trajlab.run_job", bind=True)
+@celery_app.task(name="trajlab.run_job", bind=True, max_retries=None)
 def run_job(self, job_id: str, attempt: int) -> str | None:
     settings = get_settings()
-    return execute_job(get_database(settings.database_url), settings, job_id, attempt,
-                       worker=self.request.hostname or socket.gethostname())
+    try:
+        return execute_job(get_database(settings.database_url), settings, job_id, attempt,
+                           worker=self.request.hostname or socket.gethostname())
+    except DatabaseUnavailable as exc:
+        delay = min(2.0 ** min(self.request.retries, 6), settings.db_retry_max_s)
+        log.warning("job %s: database unreachable (%s); delivery retried in %.0f s", job_id, exc, delay)
+        raise self.retry(countdown=delay)
 
 
 @celery_app.task(name="trajlab.mc_chunk", bind=True)
@@ -71,14 +121,3 @@ def mc_chunk(self, run_id: str, index: int, start: int, count: int, seed: int) -
     settings = get_settings()
     return fanout.compute_chunk(fanout.redis_from_broker_url(settings.broker_url), run_id, index, start, count,
                                 seed, who=self.request.hostname or socket.gethostname())
-
-
-@celery_app.task(name="trajlab.reap")
-def reap() -> int:
-    settings = get_settings()
-    requeue = jobs.reap_stale(get_database(settings.database_url),
-                              stale_after_s=settings.stale_after_s, max_attempts=settings.max_attempts)
-    for job_id, attempt, kind in requeue:
-        publish_job(celery_app, settings, job_id=job_id, attempt=attempt, kind=kind)
-        log.warning("re-queued job %s (attempt %d) after its heartbeat went stale", job_id, attempt)
-    return len(requeue)

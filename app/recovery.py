@@ -1,0 +1,117 @@
+"""The recovery loop: the jobs table is the truth, and this loop makes the broker agree with it.
+
+Every ``reaper_interval_s`` it
+
+* re-queues running jobs whose heartbeat went stale (their worker died) with a
+  new attempt token, or fails them with ``worker_lost`` after ``max_attempts``;
+* re-publishes every queued job whose message is not in the broker: jobs whose
+  submission found the broker down (``published_at`` NULL), and jobs whose
+  message was lost (a Redis restart without persistence, an API process that
+  died between commit and publish).  On Redis it looks into the queues and the
+  unacknowledged set, so a job waiting its turn in a long backlog is not sent
+  twice; duplicates would be harmless anyway (the attempt token);
+* moves trade studies on whose points ended without the worker's hook.
+
+It runs outside Celery (a thread of ``trajlab serve``, or ``trajlab recover`` in
+production, exactly one per deployment), so a backlog in the job queues never
+delays recovery, and it survives database and broker outages by logging and
+trying again at the next tick.
+"""
+from __future__ import annotations
+
+import logging
+import re
+import threading
+
+from app import jobs, studies
+from app.broker import QUEUES, create_publisher, publish_job
+from app.db import Database, get_database
+from app.settings import Settings
+
+log = logging.getLogger("trajlab.recovery")
+_JOB_ID = re.compile(rb"[0-9a-f]{32}")
+# kombu's Redis transport keeps delivered, unacknowledged messages in this hash
+_UNACKED = "unacked"
+
+
+def redis_client(broker_url: str):
+    import redis
+
+    if broker_url.startswith("redis+socket://"):
+        return redis.Redis(unix_socket_path=broker_url.removeprefix("redis+socket://"), socket_timeout=5)
+    return redis.Redis.from_url(broker_url, socket_timeout=5)
+
+
+def job_ids_in_broker(r) -> set[str]:
+    """Job ids of every message waiting in our queues or delivered and not yet acknowledged."""
+    found: set[str] = set()
+    for queue in QUEUES:
+        for raw in r.lrange(queue, 0, -1):
+            found.update(m.decode() for m in _JOB_ID.findall(raw))
+    for raw in r.hvals(_UNACKED):
+        found.update(m.decode() for m in _JOB_ID.findall(raw))
+    return found
+
+
+class Recovery:
+    """One recovery pass at a time; ``run_forever`` ticks until ``stop``."""
+
+    def __init__(self, settings: Settings, db: Database | None = None):
+        self.settings = settings
+        self.db = db or get_database(settings.database_url)
+        self.celery = create_publisher(settings)
+        self.redis = redis_client(settings.broker_url)
+        self._stop = threading.Event()
+
+    def _publish(self, job) -> bool:
+        try:
+            publish_job(self.celery, self.settings, job_id=job.id, attempt=job.attempts, kind=job.kind,
+                        queue=job.queue)
+            return True
+        except Exception:
+            log.warning("could not publish job %s (broker unreachable?)", job.id, exc_info=True)
+            return False
+
+    def tick(self) -> dict:
+        """One pass; the counts of what it did."""
+        s = self.settings
+        done = {"requeued": 0, "republished": 0, "study_points": 0}
+        for job in jobs.reap_stale(self.db, stale_after_s=s.stale_after_s, max_attempts=s.max_attempts):
+            if self._publish(job):
+                done["requeued"] += 1
+                log.warning("re-queued job %s (attempt %d) after its heartbeat went stale", job.id, job.attempts)
+            else:
+                jobs.mark_unpublished(self.db, job.id)
+        candidates = jobs.publish_candidates(self.db, older_than_s=s.republish_after_s)
+        if candidates:
+            present = job_ids_in_broker(self.redis)
+            sent = [job.id for job in candidates if job.id not in present and self._publish(job)]
+            jobs.mark_published(self.db, sent)
+            if sent:
+                done["republished"] = len(sent)
+                log.warning("re-published %d queued job(s) missing from the broker", len(sent))
+        for job in studies.advance_all(self.db):
+            if self._publish(job):
+                done["study_points"] += 1
+            else:
+                jobs.mark_unpublished(self.db, job.id)
+        return done
+
+    def run_forever(self) -> None:
+        log.info("recovery loop every %.1f s", self.settings.reaper_interval_s)
+        while not self._stop.is_set():
+            try:
+                self.tick()
+            except Exception as exc:  # a database or broker outage: try again next tick
+                log.warning("recovery pass failed (%s); retrying in %.0f s", type(exc).__name__,
+                            self.settings.reaper_interval_s)
+            self._stop.wait(self.settings.reaper_interval_s)
+
+    def start_thread(self) -> threading.Thread:
+        thread = threading.Thread(target=self.run_forever, name="trajlab-recovery", daemon=True)
+        thread.start()
+        return thread
+
+    def stop(self) -> None:
+        self._stop.set()
+
