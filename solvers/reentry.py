@@ -116,8 +116,8 @@ def _param_vector(problem: ReentryProblem) -> np.ndarray:
     v = problem.vehicle
     return np.array([v.mass_kg, v.area_m2, *v.cl_coeffs, *v.cd_coeffs, v.cd_scale, v.cl_scale,
                      problem.max_heat_rate_w_m2 or 1.0, problem.max_dynamic_pressure_pa or 1.0,
-                     problem.max_load_factor or 1.0, problem.initial_state[1],
-                     problem.initial_state[2]], float)
+                     problem.max_load_factor or 1.0, problem.initial_state[LONGITUDE],
+                     problem.initial_state[LATITUDE]], float)
 
 
 def _symbolic_vehicle(vehicle: sh.Vehicle, p):
