@@ -1,0 +1,127 @@
+"""A whole trajlab stack on servers of its own, for fault tests: the API (TestClient), real worker and
+recovery processes, a Redis and a PostgreSQL that the tests stop, kill and restart."""
+from __future__ import annotations
+
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from collections import Counter
+from pathlib import Path
+
+import pytest
+from fastapi.testclient import TestClient
+
+from app.broker import QUEUES
+from app.main import create_app
+from app.migrate import upgrade
+from app.settings import Settings
+from tests.faults.servers import PostgresServer, RedisServer
+
+ROOT = Path(__file__).resolve().parents[2]
+# The cheapest real job: the impulsive interception scan on a coarse grid (a few tens of ms).
+QUICK = {"kind": "intercept", "preset": "long-range-intercept",
+         "params": {"methods": ["impulsive"], "scan": {"step_s": 20.0}}}
+FINAL = ("succeeded", "failed", "cancelled")
+
+
+class Stack:
+    def __init__(self, pg: PostgresServer, redis: RedisServer, tmp: Path):
+        self.pg, self.redis, self.tmp = pg, redis, tmp
+        overrides = {"TRAJLAB_DATABASE_URL": pg.url, "TRAJLAB_BROKER_URL": redis.url, "TRAJLAB_AUTH": "off",
+                     "TRAJLAB_HEARTBEAT_INTERVAL_S": "0.5", "TRAJLAB_STALE_AFTER_S": "15",
+                     "TRAJLAB_REAPER_INTERVAL_S": "1", "TRAJLAB_REPUBLISH_AFTER_S": "3",
+                     "TRAJLAB_DB_RETRY_MAX_S": "2"}
+        self.env = {**os.environ, **overrides, "PYTHONPATH": str(ROOT)}
+        self.settings = Settings(**{k.removeprefix("TRAJLAB_").lower(): v for k, v in overrides.items()})
+        upgrade(pg.url)
+        self.client = TestClient(create_app(self.settings))
+        self.procs: dict[str, subprocess.Popen] = {}
+        self._n = 0
+
+    def _spawn(self, name: str, cmd: list[str]) -> None:
+        self.procs[name] = subprocess.Popen(cmd, cwd=ROOT, env=self.env, stdout=open(self.tmp / f"{name}.log", "ab"),
+                                            stderr=subprocess.STDOUT, start_new_session=True)
+
+    def start_worker(self, concurrency: int = 2) -> None:
+        self._n += 1
+        self._spawn("worker", [sys.executable, "-m", "celery", "-A", "worker.celery_app:celery_app", "worker",
+                               "--loglevel=INFO", f"--concurrency={concurrency}", "-n", f"fault{self._n}@%h",
+                               "-Q", ",".join(QUEUES)])
+
+    def start_recovery(self) -> None:
+        self._spawn("recover", [sys.executable, "-m", "app.cli", "recover"])
+
+    def kill(self, name: str) -> None:
+        proc = self.procs.pop(name, None)
+        if proc is not None and proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait(timeout=30)
+
+    def stop(self, name: str) -> None:
+        proc = self.procs.pop(name, None)
+        if proc is not None and proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGTERM)
+            try:
+                proc.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                os.killpg(proc.pid, signal.SIGKILL)
+                proc.wait(timeout=30)
+
+    def close(self) -> None:
+        for name in list(self.procs):
+            self.stop(name)
+        self.client.close()
+        self.client.app.state.db.dispose()
+
+    # --- what the tests assert -------------------------------------------------------------
+    def submit(self, body: dict = QUICK):
+        return self.client.post("/v1/jobs", json=body)
+
+    def statuses(self, ids: list[str]) -> dict[str, dict]:
+        out = {}
+        for job_id in ids:
+            r = self.client.get(f"/v1/jobs/{job_id}")
+            if r.status_code == 200:
+                out[job_id] = r.json()
+        return out
+
+    def wait_final(self, ids: list[str], timeout: float) -> tuple[dict[str, dict], float]:
+        """Every job final (or the timeout); the jobs and the seconds it took."""
+        t0 = time.monotonic()
+        while True:
+            jobs = self.statuses(ids)
+            if len(jobs) == len(ids) and all(j["status"] in FINAL for j in jobs.values()):
+                return jobs, time.monotonic() - t0
+            if time.monotonic() - t0 > timeout:
+                return jobs, time.monotonic() - t0
+            time.sleep(0.25)
+
+    def executions(self) -> Counter:
+        """How many times each job was started by a worker, from the worker logs."""
+        count: Counter = Counter()
+        for log in self.tmp.glob("worker*.log"):
+            for m in re.finditer(r"job ([0-9a-f]{32}) attempt \d+ started", log.read_text(errors="replace")):
+                count[m.group(1)] += 1
+        return count
+
+
+@pytest.fixture
+def stack(tmp_path):
+    pg = PostgresServer().start()
+    redis = RedisServer(tmp_path).start()
+    s = Stack(pg, redis, tmp_path)
+    try:
+        yield s
+    finally:
+        s.close()
+        redis.kill()
+        pg.destroy()
+
+
+def report(name: str, **figures) -> None:
+    """The figures of a fault run, printed for the closing note (pytest -s shows them)."""
+    print(f"\nFAULT {name}: " + ", ".join(f"{k}={v:.1f}" if isinstance(v, float) else f"{k}={v}"
+                                          for k, v in figures.items()))
