@@ -148,3 +148,20 @@ def test_production_process_commands(service, pg_url, redis_url):
     finally:
         api.terminate()
         api.wait(timeout=30)
+
+
+def test_a_duplicate_message_of_a_running_job_is_dropped(service):
+    from app.broker import publish_job
+
+    job = service.submit("midcourse", preset="upper-stage-two-corrections",
+                         params={**LONG, "generations": 600}).json()
+    running = _wait_running(service, job["id"])
+    # the same delivery message again (what a re-publish or a broker redelivery would send)
+    app = service.client.app
+    publish_job(app.state.celery, service.settings, job_id=job["id"], attempt=running["attempts"],
+                kind="midcourse")
+    done = service.wait(job["id"], timeout=180)
+    assert done["status"] == "succeeded" and done["attempts"] == 1  # never taken over by its duplicate
+    logs = "".join(p.read_text(errors="replace") for p in service.log_dir.glob("worker-*.log"))
+    assert logs.count(f"job {job['id']} attempt 1 started") == 1
+    assert f"delivery of job {job['id']} attempt 1 dropped" in logs
