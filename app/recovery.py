@@ -22,6 +22,7 @@ from __future__ import annotations
 import logging
 import re
 import threading
+import time
 
 from app import jobs, studies
 from app.broker import QUEUES, create_publisher, publish_job
@@ -30,8 +31,10 @@ from app.settings import Settings
 
 log = logging.getLogger("trajlab.recovery")
 _JOB_ID = re.compile(rb"[0-9a-f]{32}")
-# kombu's Redis transport keeps delivered, unacknowledged messages in this hash
+# kombu's Redis transport keeps delivered, unacknowledged messages in this hash, and their delivery
+# times in this sorted set
 _UNACKED = "unacked"
+_UNACKED_INDEX = "unacked_index"
 
 
 def redis_client(broker_url: str):
@@ -42,14 +45,20 @@ def redis_client(broker_url: str):
     return redis.Redis.from_url(broker_url, socket_timeout=5)
 
 
-def job_ids_in_broker(r) -> set[str]:
-    """Job ids of every message waiting in our queues or delivered and not yet acknowledged."""
+def job_ids_in_broker(r, *, delivered_within_s: float) -> set[str]:
+    """Job ids of every message waiting in our queues, or delivered within ``delivered_within_s``
+    and not yet acknowledged.  A message delivered longer ago whose job is still queued sits with a
+    worker that died before it started it (a SIGKILL): Redis would give it back only after the
+    visibility timeout (longer than the longest job), so it counts as lost."""
     found: set[str] = set()
     for queue in QUEUES:
         for raw in r.lrange(queue, 0, -1):
             found.update(m.decode() for m in _JOB_ID.findall(raw))
-    for raw in r.hvals(_UNACKED):
-        found.update(m.decode() for m in _JOB_ID.findall(raw))
+    recent = r.zrangebyscore(_UNACKED_INDEX, time.time() - delivered_within_s, "+inf")
+    if recent:
+        for raw in r.hmget(_UNACKED, recent):
+            if raw is not None:
+                found.update(m.decode() for m in _JOB_ID.findall(raw))
     return found
 
 
@@ -84,7 +93,7 @@ class Recovery:
                 jobs.mark_unpublished(self.db, job.id)
         candidates = jobs.publish_candidates(self.db, older_than_s=s.republish_after_s)
         if candidates:
-            present = job_ids_in_broker(self.redis)
+            present = job_ids_in_broker(self.redis, delivered_within_s=s.republish_after_s)
             sent = [job.id for job in candidates if job.id not in present and self._publish(job)]
             jobs.mark_published(self.db, sent)
             if sent:
