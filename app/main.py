@@ -45,7 +45,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(console.router)
     console.mount_static(app)
     app.include_router(presets.router)
-    app.include_router(studies.router, responses=needs_key)
+    app.include_router(studies.router, responses=bad_body | needs_key)
     app.include_router(lambert.router, responses=bad_body | needs_key, max_body_size=lambert.max_body_bytes(settings))
     app.include_router(health.router)
     return app

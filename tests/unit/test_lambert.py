@@ -111,3 +111,10 @@ def test_property_solution_lands_on_r2(r1n, r2n, theta, inc, tof_scale, prograde
     h_z = np.cross(r1, sol.v1)[2]
     if abs(np.cross(r1, r2)[2]) > 1e-3 * r1n * r2n:
         assert (h_z > 0) == prograde
+
+
+def test_degenerate_times_of_flight_are_unconverged_not_errors():
+    # a denormal or zero time of flight divides by zero inside the compiled loop: NaN, not an exception
+    r1, r2 = np.array([[5e6, 1e7, 2.1e6]] * 3), np.array([[-1.46e7, 2.5e6, 7e6]] * 3)
+    sol = lambert(398600.4418e9, r1, r2, np.array([5e-324, 0.0, np.inf]))
+    assert not sol.converged.any() and np.isnan(sol.v1).all()
