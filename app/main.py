@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from fastapi import Depends, FastAPI
+from fastapi.middleware.gzip import GZipMiddleware
 from fastapi.exceptions import RequestValidationError
 from sqlalchemy.exc import DBAPIError, OperationalError
 from sqlalchemy.exc import TimeoutError as PoolTimeout
@@ -22,7 +23,7 @@ names carry the unit (`altitude_m`, `flight_path_deg`, `tf_s`).
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:
-    from app.routes import console, events, health, jobs, lambert, presets, studies  # after settings: routes read the registry
+    from app.routes import console, events, health, jobs, lambert, presets, results, studies  # after settings: routes read the registry
     from app.broker import create_publisher
 
     settings = settings or get_settings()
@@ -34,6 +35,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.add_exception_handler(Exception, internal_error_handler)
     for exc_type in (OperationalError, DBAPIError, PoolTimeout):  # a database outage is a 503, not a 500
         app.add_exception_handler(exc_type, database_unavailable_handler)
+    # gzip above 1 kB: result JSON compresses ~5x; Starlette leaves text/event-stream alone
+    app.add_middleware(GZipMiddleware, minimum_size=1000)
     app.state.settings = settings
     app.state.db = get_database(settings.database_url)
     app.state.celery = create_publisher(settings)
@@ -42,6 +45,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     needs_key = {401: {"description": "No, unknown or revoked API key (TRAJLAB_AUTH=required)"}}
     app.include_router(jobs.router, responses=bad_body | needs_key)
     app.include_router(events.router, responses=needs_key)
+    app.include_router(results.router, responses=needs_key)
     app.include_router(console.router)
     console.mount_static(app)
     app.include_router(presets.router)

@@ -1,0 +1,109 @@
+"""Plots, CSV tables and the report of every preset of every kind, from real solver results."""
+from __future__ import annotations
+
+import csv
+import io
+import math
+
+import pytest
+
+from app.kinds import KINDS, PRESETS
+from app.params import resolve_params
+from app.results import plots as plot_defs
+from app.results.report import render_report
+from app.results.tables import tables_for, to_csv
+from app.summary import key_numbers
+from tests.support import RecordingContext
+
+FAST = [name for name, p in PRESETS.items() if p.kind != "robust_reentry"]
+OVERRIDES = {"long-range-intercept": {"porkchop": {"enabled": True}}}
+
+
+@pytest.fixture(scope="module")
+def solved():
+    out = {}
+    for name in FAST:
+        preset = PRESETS[name]
+        spec = KINDS[preset.kind]
+        params = resolve_params(spec, preset.params, OVERRIDES.get(name))
+        outcome = spec.run(spec.params_model.model_validate(params), RecordingContext())
+        out[name] = (preset.kind, params, outcome)
+    return out
+
+
+def _check_png(data: bytes, size_in: tuple[float, float]) -> None:
+    from matplotlib.image import imread
+
+    img = imread(io.BytesIO(data), format="png")
+    assert img.shape[:2] == (round(size_in[1] * 100), round(size_in[0] * 100))
+    assert img[..., :3].var() > 1e-3  # not blank
+
+
+def _check_all(kind: str, params: dict, result: dict) -> list:
+    plots = plot_defs.plots_for(kind, result)
+    assert plots, kind
+    svgs = []
+    for p in plots:
+        png = plot_defs.render(p, result=result, params=params, title="test", fmt="png")
+        _check_png(png, plot_defs.SIZES.get(p.name, (8, 5)))
+        svg = plot_defs.render(p, result=result, params=params, title="test", fmt="svg").decode()
+        assert "<svg" in svg and "</svg>" in svg
+        svgs.append((p.title, svg))
+    report = render_report(job={"id": "x" * 32, "kind": kind, "label": "t", "status": "succeeded",
+                                "created_at": "c", "finished_at": "f", "params": params},
+                           result=result, key_numbers=key_numbers(kind, result), svgs=svgs)
+    assert report.count("<svg ") == len(plots)
+    for external in ("<script", "<link", 'src="http', "href=\"http", "url(http"):  # self-contained: mailable
+        assert external not in report
+    for p in plots:
+        assert p.title in report
+    return plots
+
+
+@pytest.mark.parametrize("name", FAST)
+def test_every_plot_renders_and_the_report_holds_them(solved, name):
+    kind, params, outcome = solved[name]
+    if outcome.status != "succeeded":  # the paper's infeasible case 4: an answer, with no plots
+        assert name == "shuttle-min-heat-load-terminal" and outcome.error["code"] == "infeasible"
+        return
+    names = [p.name for p in _check_all(kind, params, outcome.result)]
+    expected = {"reentry": {"altitude_speed", "ground_track", "controls", "heating"},
+                "midcourse": {"pareto_front", "correction_times"},
+                "intercept": {"delta_v_scan", "porkchop", "thrust_mass", "hill_trajectory"}}[kind]
+    assert set(names) == expected
+
+
+def _num(text: str):
+    return None if text == "" else float(text)
+
+
+@pytest.mark.parametrize("name", FAST)
+def test_csv_tables_round_trip_the_json_numbers(solved, name):
+    kind, _, outcome = solved[name]
+    if outcome.status != "succeeded":
+        return
+    tables = tables_for(kind, outcome.result)
+    assert tables
+    for table, cols in tables.items():
+        rows = list(csv.reader(io.StringIO(to_csv(cols))))
+        assert rows[0] == list(cols) and all(h.rsplit("_", 1)[-1] in (
+            "s", "m", "mps", "deg", "kg", "n", "m2", "pa", "factor") for h in rows[0]), rows[0]
+        for i, row in enumerate(rows[1:]):
+            for h, text in zip(rows[0], row):
+                want = cols[h][i]
+                got = _num(text)
+                if want is None or (isinstance(want, float) and math.isnan(want)):
+                    assert got is None or math.isnan(got)
+                else:
+                    assert got == pytest.approx(want, rel=1e-12, abs=0.0)
+
+
+@pytest.mark.slow
+def test_robust_plots_render():
+    preset = PRESETS["robust-max-crossrange"]
+    spec = KINDS["robust_reentry"]
+    params = resolve_params(spec, preset.params, {"monte_carlo": {"samples": 2000}})
+    outcome = spec.run(spec.params_model.model_validate(params), RecordingContext())
+    assert outcome.status == "succeeded"
+    names = [p.name for p in _check_all("robust_reentry", params, outcome.result)]
+    assert {"designs", "envelopes", "terminal_scatter", "heating"} <= set(names)
