@@ -1,0 +1,46 @@
+"""Plots, report and CSV over HTTP for a job run by a real worker: 409 before success, 404 for unknown
+names, ETag and 304, gzip."""
+from __future__ import annotations
+
+import csv
+import io
+
+import pytest
+
+pytestmark = pytest.mark.integration
+
+IMPULSIVE = {"methods": ["impulsive"], "porkchop": {"enabled": True}}
+
+
+def test_plots_report_and_csv_of_a_finished_job(service):
+    job = service.submit("intercept", preset="long-range-intercept", params=IMPULSIVE).json()
+    early = service.client.get(f"/v1/jobs/{job['id']}/plots")
+    assert early.status_code in (409, 200)
+    assert service.wait(job["id"])["status"] == "succeeded"
+    index = service.client.get(f"/v1/jobs/{job['id']}/plots").json()
+    assert {p["name"] for p in index["plots"]} == {"delta_v_scan", "porkchop"}
+    assert {t["name"] for t in index["tables"]} == {"scan", "porkchop"}
+    png = service.client.get(index["plots"][0]["png"])
+    assert png.status_code == 200 and png.headers["content-type"] == "image/png"
+    assert png.content[:8] == b"\x89PNG\r\n\x1a\n"
+    etag = png.headers["etag"]
+    again = service.client.get(index["plots"][0]["png"], headers={"If-None-Match": etag})
+    assert again.status_code == 304 and again.content == b""
+    svg = service.client.get(index["plots"][1]["svg"], headers={"Accept-Encoding": "gzip"})
+    assert svg.status_code == 200 and svg.headers.get("content-encoding") == "gzip" and b"<svg" in svg.content
+    assert service.client.get(f"/v1/jobs/{job['id']}/plots/nope.png").status_code == 404
+    report = service.client.get(index["report"])
+    assert report.status_code == 200 and report.text.count("<svg ") == 2 and "<script" not in report.text
+    table = service.client.get(f"/v1/jobs/{job['id']}/result.csv", params={"table": "scan"})
+    rows = list(csv.reader(io.StringIO(table.text)))
+    scan = service.result(job["id"])["impulsive"]["scan"]
+    assert rows[0] == ["t_man_s", "delta_v_mps"] and len(rows) - 1 == len(scan["t_man_s"])
+    assert float(rows[10][1]) == pytest.approx(scan["delta_v_mps"][9], rel=1e-12)
+    assert service.client.get(f"/v1/jobs/{job['id']}/result.csv", params={"table": "nope"}).status_code == 404
+
+
+def test_plots_of_a_job_that_did_not_succeed_are_409(service):
+    job = service.submit("reentry", preset="shuttle-min-heat-load-terminal").json()  # infeasible
+    assert service.wait(job["id"])["status"] == "failed"
+    assert service.client.get(f"/v1/jobs/{job['id']}/plots").status_code == 409
+    assert service.client.get(f"/v1/jobs/{job['id']}/report.html").status_code == 409
