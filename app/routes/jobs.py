@@ -4,7 +4,7 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
-from typing import Annotated
+from typing import Annotated, Literal
 
 from fastapi import APIRouter, Body, Header, HTTPException, Query, Response
 from fastapi.responses import JSONResponse
@@ -14,6 +14,7 @@ from app.access import PrincipalDep, not_found, visible_job
 from app.deps import CeleryDep, DatabaseDep, SettingsDep
 from app.kinds import KINDS, PRESETS
 from app.params import resolve_params
+from app.results.compact import compact
 from app.schemas import JobList, JobOut, JobStatus, JobSubmission
 from app.broker import publish_job
 
@@ -101,14 +102,23 @@ def get_job(job_id: str, db: DatabaseDep, principal: PrincipalDep):
     404: {"description": "Unknown job"},
     409: {"description": "Not succeeded (yet): the body gives the status, the error and any stored diagnostic "
                          "or partial result (e.g. the Pareto front of a cancelled run)"}})
-def get_result(job_id: str, db: DatabaseDep, principal: PrincipalDep):
+def get_result(job_id: str, db: DatabaseDep, principal: PrincipalDep,
+               include: Annotated[list[Literal["scan", "samples"]], Query(
+                   description="Full arrays the default body thins: `scan` (intercept delta-v scan), "
+                               "`samples` (robust Monte Carlo sample traces)")] = [],
+               if_none_match: Annotated[str | None, Header(max_length=200)] = None):
     job = visible_job(db, job_id, principal)
     result = jobs.get_result(db, job_id) if job.status in ("succeeded", "failed", "cancelled") else None
     if job.status != "succeeded":
         return JSONResponse(status_code=409, content={
             "detail": f"job {job_id} is {job.status}; its result is available once it has succeeded",
             "status": job.status, "error": job.error, "partial_result": result})
-    return result
+    # a succeeded result never changes: a strong validator per job and view, and a long private cache
+    etag = f'"{job_id}-result-{"-".join(sorted(set(include))) or "default"}"'
+    headers = {"ETag": etag, "Cache-Control": "private, max-age=86400"}
+    if if_none_match and etag in [t.strip() for t in if_none_match.split(",")]:
+        return Response(status_code=304, headers=headers)
+    return JSONResponse(compact(job.kind, result, set(include)), headers=headers)
 
 
 @router.post("/{job_id}/cancel", status_code=202, response_model=JobOut, responses={404: {"description": "Unknown job"}})

@@ -33,7 +33,7 @@ def test_plots_report_and_csv_of_a_finished_job(service):
     assert report.status_code == 200 and report.text.count("<svg ") == 2 and "<script" not in report.text
     table = service.client.get(f"/v1/jobs/{job['id']}/result.csv", params={"table": "scan"})
     rows = list(csv.reader(io.StringIO(table.text)))
-    scan = service.result(job["id"])["impulsive"]["scan"]
+    scan = service.client.get(f"/v1/jobs/{job['id']}/result", params={"include": "scan"}).json()["impulsive"]["scan"]
     assert rows[0] == ["t_man_s", "delta_v_mps"] and len(rows) - 1 == len(scan["t_man_s"])
     assert float(rows[10][1]) == pytest.approx(scan["delta_v_mps"][9], rel=1e-12)
     assert service.client.get(f"/v1/jobs/{job['id']}/result.csv", params={"table": "nope"}).status_code == 404
@@ -44,3 +44,22 @@ def test_plots_of_a_job_that_did_not_succeed_are_409(service):
     assert service.wait(job["id"])["status"] == "failed"
     assert service.client.get(f"/v1/jobs/{job['id']}/plots").status_code == 409
     assert service.client.get(f"/v1/jobs/{job['id']}/report.html").status_code == 409
+
+
+def test_the_default_intercept_result_is_compact_and_keeps_every_minimum(service):
+    job = service.submit("intercept", preset="long-range-intercept", params={"methods": ["impulsive"]}).json()
+    assert service.wait(job["id"])["status"] == "succeeded"
+    default = service.client.get(f"/v1/jobs/{job['id']}/result")
+    full = service.client.get(f"/v1/jobs/{job['id']}/result", params={"include": "scan"})
+    assert len(default.content) < 50_000 < len(full.content)
+    thin, scan = default.json()["impulsive"]["scan"], full.json()["impulsive"]["scan"]
+    assert thin["points_stored"] == len(scan["t_man_s"]) == 16161
+    dv = scan["delta_v_mps"]
+    minima = {scan["t_man_s"][i] for i in range(1, len(dv) - 1)
+              if None not in (dv[i - 1], dv[i], dv[i + 1]) and dv[i] <= dv[i - 1] and dv[i] <= dv[i + 1]}
+    assert minima and minima <= set(thin["t_man_s"])
+    etag = default.headers["etag"]
+    assert service.client.get(f"/v1/jobs/{job['id']}/result", headers={"If-None-Match": etag}).status_code == 304
+    gz = service.client.get(f"/v1/jobs/{job['id']}/result", params={"include": "scan"},
+                            headers={"Accept-Encoding": "gzip"})
+    assert gz.headers.get("content-encoding") == "gzip"

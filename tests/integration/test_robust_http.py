@@ -12,8 +12,10 @@ def test_robust_max_crossrange_preset(service):
     assert job["status"] == "succeeded", job
     assert job["params"]["monte_carlo"]["samples"] == 400
     assert job["params"]["uncertainty"]["cd"]["mean"] == pytest.approx(0.01)
-    res = service.result(job["id"])
+    res = service.client.get(f"/v1/jobs/{job['id']}/result", params={"include": "samples"}).json()
     assert res["solver"]["status"] == "Solve_Succeeded"
+    thin = service.result(job["id"])["monte_carlo"]["robust"]["sample_traces"]  # the default body: 20 traces
+    assert len(thin["speed_mps"]) == 20
     assert res["deterministic"]["tf_s"] == pytest.approx(2199.26, abs=0.5)
     assert res["tf_s"] > res["deterministic"]["tf_s"] + 10.0
     assert res["final"]["altitude_m"] == pytest.approx(24384.0, abs=0.01)
