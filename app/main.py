@@ -23,13 +23,13 @@ names carry the unit (`altitude_m`, `flight_path_deg`, `tf_s`).
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:
-    from app.routes import console, events, health, jobs, lambert, presets, results, studies  # after settings: routes read the registry
+    from app.routes import console, docs, events, health, jobs, lambert, presets, results, studies  # after settings: routes read the registry
     from app.broker import create_publisher
 
     settings = settings or get_settings()
     # max_body_size: FastAPI's own cap (413 on Content-Length or streamed bytes, before parsing);
     # reject_unsafe_text: NUL and lone surrogates are a 422 (app.limits).
-    app = FastAPI(title="trajlab", version="0.1.0", description=DESCRIPTION,
+    app = FastAPI(title="trajlab", version="0.1.0", description=DESCRIPTION, docs_url=None, redoc_url=None,
                   max_body_size=settings.max_body_bytes, dependencies=[Depends(reject_unsafe_text)])
     app.add_exception_handler(RequestValidationError, validation_error_handler)
     app.add_exception_handler(Exception, internal_error_handler)
@@ -52,4 +52,5 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(studies.router, responses=bad_body | needs_key)
     app.include_router(lambert.router, responses=bad_body | needs_key, max_body_size=lambert.max_body_bytes(settings))
     app.include_router(health.router)
+    docs.mount(app)  # /docs and /redoc from packaged assets: they work offline
     return app

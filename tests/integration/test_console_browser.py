@@ -127,3 +127,20 @@ def test_with_keys_the_console_asks_once_and_shows_only_that_owners_jobs(browser
         page.goto(f"{url}/jobs/{ids['b']}")  # another owner's job is not found, even by its id
         page.wait_for_function("document.querySelector('#error').textContent.includes('not found')")
         page.evaluate("localStorage.removeItem('trajlab.apiKey')")
+
+
+def test_docs_and_a_report_render_offline(browser_page, service):
+    url, page, seen = browser_page
+    page.goto(f"{url}/docs")
+    page.wait_for_selector(".opblock-summary-path", timeout=60_000)  # Swagger UI 5 drew the operation list
+    paths = page.eval_on_selector_all(".opblock-summary-path", "els => els.map(e => e.textContent)")
+    assert any("/v1/jobs" in p for p in paths)
+    page.goto(f"{url}/redoc")
+    page.wait_for_selector("h1", timeout=60_000)
+    job = service.submit("intercept", preset="long-range-intercept", params=IMPULSIVE).json()
+    assert service.wait(job["id"])["status"] == "succeeded"
+    page.goto(f"{url}/v1/jobs/{job['id']}/report.html")
+    assert page.locator("figure svg").count() == 1 and page.locator("figure svg").first.bounding_box()["width"] > 100
+    page.goto(f"{url}/jobs/{job['id']}")  # the console's job page shows the plots as images
+    page.wait_for_function("[...document.querySelectorAll('#plots img')].some(i => i.naturalWidth > 0)")
+    assert all(urlparse(u).hostname in (None, "127.0.0.1") for u in seen if u.startswith("http"))
