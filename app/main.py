@@ -30,6 +30,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     # max_body_size: FastAPI's own cap (413 on Content-Length or streamed bytes, before parsing);
     # reject_unsafe_text: NUL and lone surrogates are a 422 (app.limits).
     app = FastAPI(title="trajlab", version="0.1.0", description=DESCRIPTION, docs_url=None, redoc_url=None,
+                  # operation ids are the route functions' names (submit_job, get_result, ...): what client
+                  # generators turn into method names
+                  generate_unique_id_function=lambda route: route.name,
                   max_body_size=settings.max_body_bytes, dependencies=[Depends(reject_unsafe_text)])
     app.add_exception_handler(RequestValidationError, validation_error_handler)
     app.add_exception_handler(Exception, internal_error_handler)

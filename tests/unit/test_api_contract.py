@@ -128,3 +128,16 @@ def test_every_schema_has_a_unique_meaningful_title():
     assert [name for name in schemas if "__" in name and name.split("__")[-1] not in PENDING_SCHEMA_RENAMES] == []
     for kind in ("intercept", "midcourse"):
         assert KINDS[kind].params_model.__name__ == f"{kind.capitalize()}Params"
+
+
+def test_operation_ids_are_the_route_names_and_unique():
+    from collections import Counter
+
+    from app.main import create_app
+
+    doc = create_app().openapi()
+    ids = [op["operationId"] for path in doc["paths"].values() for op in path.values()
+           if isinstance(op, dict) and "operationId" in op]
+    assert {"submit_job", "list_jobs", "get_job", "get_result", "cancel_job", "solve_lambert", "get_plot"} <= set(ids)
+    assert not [i for i, c in Counter(ids).items() if c > 1]
+    assert all("_v1_" not in i for i in ids)  # not FastAPI's generated get_result_v1_jobs_job_id_result_get

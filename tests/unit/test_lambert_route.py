@@ -92,3 +92,14 @@ def test_cap_is_enforced(client, monkeypatch):
 
 def test_empty_list_is_422(client):
     assert client.post("/v1/lambert", json={"problems": []}).status_code == 422
+
+
+@pytest.mark.parametrize("problem, mu", [
+    ({"r1_m": [1e300, 0, 0], "r2_m": [0, 7e6, 0], "tof_s": 3600.0}, None),
+    ({"r1_m": [7e6, 0, 0], "r2_m": [0, 7e6, 0], "tof_s": 1e300}, None),
+    ({"r1_m": [7e6, 0, 0], "r2_m": [0, 7e6, 0], "tof_s": 3600.0}, 1e300),
+])
+def test_absurd_magnitudes_are_422(client, problem, mu):
+    body = {"problems": [problem], **({"mu_m3_s2": mu} if mu else {})}
+    r = client.post("/v1/lambert", json=body)
+    assert r.status_code == 422, r.text
