@@ -135,3 +135,14 @@ def get_result_csv(job_id: str, db: DatabaseDep, principal: PrincipalDep,
     return PlainTextResponse(to_csv(tables[table]), media_type="text/csv",
                              headers={"ETag": _etag(job_id, "csv", table), "Cache-Control": CACHE_CONTROL,
                                       "Content-Disposition": f'attachment; filename="{job_id}-{table}.csv"'})
+
+
+@router.get("/{job_id}/params", operation_id="get_resubmit_body",
+            responses={404: {"description": "Unknown job"}})
+def get_resubmit_body(job_id: str, db: DatabaseDep, principal: PrincipalDep) -> dict:
+    """The job's resolved parameters as a body `POST /v1/jobs` accepts unchanged (re-runs the job).
+
+    Any status: a failed or cancelled job is the one a user most wants to run again.
+    """
+    job = visible_job(db, job_id, principal)
+    return {"kind": job.kind, "params": job.params, "label": job.label}

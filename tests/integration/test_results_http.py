@@ -63,3 +63,15 @@ def test_the_default_intercept_result_is_compact_and_keeps_every_minimum(service
     gz = service.client.get(f"/v1/jobs/{job['id']}/result", params={"include": "scan"},
                             headers={"Accept-Encoding": "gzip"})
     assert gz.headers.get("content-encoding") == "gzip"
+
+
+def test_the_resubmit_body_posts_back_to_an_identical_job(service):
+    job = service.submit("intercept", preset="long-range-intercept", params={"methods": ["impulsive"]}).json()
+    body = service.client.get(f"/v1/jobs/{job['id']}/params")
+    assert body.status_code == 200 and set(body.json()) == {"kind", "params", "label"}
+    again = service.client.post("/v1/jobs", json=body.json())
+    assert again.status_code == 202
+    first = service.client.get(f"/v1/jobs/{job['id']}").json()
+    second = service.client.get(f"/v1/jobs/{again.json()['id']}").json()
+    assert second["kind"] == first["kind"] and second["params"] == first["params"]
+    assert service.client.get("/v1/jobs/00000000-0000-0000-0000-000000000000/params").status_code == 404
