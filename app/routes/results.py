@@ -19,6 +19,7 @@ from app import jobs
 from app.access import PrincipalDep, visible_job
 from app.deps import DatabaseDep
 from app.results import plots as plot_defs
+from app.results.oem import has_oem, to_oem
 from app.results.report import render_report
 from app.results.tables import tables_for, to_csv
 from app.summary import key_numbers
@@ -78,7 +79,7 @@ def list_plots(job_id: str, db: DatabaseDep, principal: PrincipalDep) -> dict:
         "tables": [{"name": name, "url": f"{base}/result.csv?table={name}", "columns": list(cols)}
                    for name, cols in tables_for(job.kind, result).items()],
         "report": f"{base}/report.html",
-        "oem": None,
+        "oem": f"{base}/result.oem" if has_oem(job.kind, result) else None,
     }
 
 
@@ -135,6 +136,28 @@ def get_result_csv(job_id: str, db: DatabaseDep, principal: PrincipalDep,
     return PlainTextResponse(to_csv(tables[table]), media_type="text/csv",
                              headers={"ETag": _etag(job_id, "csv", table), "Cache-Control": CACHE_CONTROL,
                                       "Content-Disposition": f'attachment; filename="{job_id}-{table}.csv"'})
+
+
+@router.get("/{job_id}/result.oem", operation_id="get_result_oem", response_class=PlainTextResponse,
+            responses={200: {"content": {"application/ccsds-oem": {}}},
+                       404: {"description": "Unknown job, or a job without a finite-thrust trajectory"},
+                       409: {"description": "Not succeeded"}})
+async def get_result_oem(job_id: str, db: DatabaseDep, principal: PrincipalDep,
+                         if_none_match: Annotated[str | None, Header()] = None):
+    """The intercept's finite-thrust trajectory as a CCSDS OEM 2.0 (KVN): EME2000, centre EARTH, TDB,
+    km and km/s; t0 written as J2000 because the parameters have no calendar epoch.  Midcourse
+    results hold no trajectory, so they have no OEM."""
+    job, result = await run_in_threadpool(_succeeded, db, job_id, principal)
+    if not has_oem(job.kind, result):
+        raise HTTPException(status_code=404, detail=f"job {job_id} has no finite-thrust trajectory to write")
+    etag = _etag(job_id, "oem")
+    if (hit := _not_modified(etag, if_none_match)) is not None:
+        return hit
+    body = await run_in_threadpool(_cached, (job_id, "result", "oem"), lambda: to_oem(
+        result=result, params=job.params, object_name=job.label or job.id).encode())
+    return Response(body, media_type="application/ccsds-oem",
+                    headers={"ETag": etag, "Cache-Control": CACHE_CONTROL,
+                             "Content-Disposition": f'attachment; filename="{job_id}.oem"'})
 
 
 @router.get("/{job_id}/params", operation_id="get_resubmit_body",

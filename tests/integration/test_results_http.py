@@ -75,3 +75,19 @@ def test_the_resubmit_body_posts_back_to_an_identical_job(service):
     second = service.client.get(f"/v1/jobs/{again.json()['id']}").json()
     assert second["kind"] == first["kind"] and second["params"] == first["params"]
     assert service.client.get("/v1/jobs/00000000-0000-0000-0000-000000000000/params").status_code == 404
+
+
+def test_the_oem_of_a_finite_thrust_intercept_over_http(service, tmp_path):
+    from oem import OrbitEphemerisMessage
+
+    job = service.submit("intercept", preset="long-range-intercept", params={"methods": ["finite_thrust"]}).json()
+    assert service.wait(job["id"])["status"] == "succeeded"
+    index = service.client.get(f"/v1/jobs/{job['id']}/plots").json()
+    assert index["oem"] == f"/v1/jobs/{job['id']}/result.oem"
+    got = service.client.get(index["oem"])
+    assert got.status_code == 200 and got.headers["content-type"].startswith("application/ccsds-oem")
+    (tmp_path / "r.oem").write_bytes(got.content)
+    states = list(OrbitEphemerisMessage.open(tmp_path / "r.oem").states)
+    traj = service.client.get(f"/v1/jobs/{job['id']}/result").json()["finite_thrust"]["trajectory"]
+    assert 20 < len(states) <= len(traj["t_s"]) and states[0].center == "EARTH"
+    assert service.client.get(index["oem"], headers={"If-None-Match": got.headers["etag"]}).status_code == 304

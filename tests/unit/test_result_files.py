@@ -5,6 +5,7 @@ import csv
 import io
 import math
 
+import numpy as np
 import pytest
 
 from app.kinds import KINDS, PRESETS
@@ -107,3 +108,40 @@ def test_robust_plots_render():
     assert outcome.status == "succeeded"
     names = [p.name for p in _check_all("robust_reentry", params, outcome.result)]
     assert {"designs", "envelopes", "terminal_scatter", "heating"} <= set(names)
+
+
+@pytest.fixture(scope="module")
+def finite_intercept():
+    spec = KINDS["intercept"]
+    params = resolve_params(spec, PRESETS["long-range-intercept"].params, {"methods": ["finite_thrust"]})
+    return params, spec.run(spec.params_model.model_validate(params), RecordingContext()).result
+
+
+def test_the_oem_reads_back_with_the_library_and_starts_on_the_interceptors_orbit(finite_intercept, tmp_path):
+    from oem import OrbitEphemerisMessage
+
+    from app.kinds.intercept import to_problem
+    from app.results.oem import has_oem, inertial_states, to_oem
+    from solvers.models.relative_motion import circular_state
+
+    params, result = finite_intercept
+    assert has_oem("intercept", result) and not has_oem("reentry", {"trajectory": {"t_s": [0.0]}})
+    path = tmp_path / "r.oem"
+    path.write_text(to_oem(result=result, params=params, object_name="job-1"))
+    message = OrbitEphemerisMessage.open(path)
+    states = list(message.states)
+    t, r, v = inertial_states(result=result, params=params)
+    assert len(states) == len(t) > 20
+    for s, ri, vi in zip(states, r, v):
+        assert s.frame == "EME2000" and s.center == "EARTH"
+        np.testing.assert_allclose(s.position * 1e3, ri, rtol=1e-6)
+        np.testing.assert_allclose(s.velocity * 1e3, vi, rtol=1e-6)
+    # The Hill-to-inertial conversion is right: t0 is exactly the interceptor's initial orbit state.
+    typed = KINDS["intercept"].params_model.model_validate(params)
+    r0, v0, rt0, vt0 = to_problem(typed).scenario.initial_states()
+    assert t[0] == 0.0
+    np.testing.assert_allclose(r[0], r0, atol=1e-3)
+    np.testing.assert_allclose(v[0], v0, atol=1e-6)
+    # and the last state is on the target (interception), within the solver's miss tolerance
+    rt, _ = circular_state(r0=rt0, v0=vt0, mu=typed.mu_m3_s2, t=np.array([t[-1]]))
+    assert np.linalg.norm(r[-1] - rt[0]) < typed.finite_thrust.miss_tolerance_m
