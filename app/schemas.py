@@ -71,3 +71,29 @@ if len(SUBMISSION_MODELS) > 1:
     JobSubmission = Annotated[Union[tuple(SUBMISSION_MODELS.values())], Field(discriminator="kind")]  # type: ignore[misc]
 else:
     JobSubmission = next(iter(SUBMISSION_MODELS.values()))  # type: ignore[misc]
+
+
+class ErrorBody(BaseModel):
+    """The body of a 404 (unknown or another owner's job/preset/table/plot), a 409 of the files routes, ..."""
+    detail: str = Field(description="What went wrong, in one sentence")
+
+
+class ValidationIssue(BaseModel):
+    loc: list[str | int] = Field(description="Where: body/params/..., field names and list indexes")
+    msg: str
+    type: str
+    input: Any = None
+
+
+class ValidationErrorBody(BaseModel):
+    """The body of every 422: one issue per bad field and a one-line summary."""
+    detail: list[ValidationIssue] | str
+    message: str | None = Field(default=None, description="All issues in one line, naming the fields")
+
+
+class NotSucceededBody(BaseModel):
+    """The 409 of ``GET /v1/jobs/{id}/result``: the job has not succeeded (yet)."""
+    detail: str
+    status: JobStatus
+    error: JobError | None = None
+    partial_result: dict[str, Any] | None = None

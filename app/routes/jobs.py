@@ -15,7 +15,7 @@ from app.deps import CeleryDep, DatabaseDep, SettingsDep
 from app.kinds import KINDS, PRESETS
 from app.params import resolve_params
 from app.results.compact import compact
-from app.schemas import JobList, JobOut, JobStatus, JobSubmission
+from app.schemas import ErrorBody, JobList, JobOut, JobStatus, JobSubmission, NotSucceededBody, ValidationErrorBody
 from app.broker import publish_job
 
 router = APIRouter(prefix="/v1/jobs", tags=["jobs"])
@@ -23,8 +23,10 @@ log = logging.getLogger("trajlab.api")
 
 
 @router.post("", status_code=202, response_model=JobOut,
-             responses={202: {"description": "Accepted: the job is queued; `Location` points at it"},
-                        422: {"description": "Invalid parameters (the message names the field and the rule), "
+             responses={202: {"description": "Accepted: the job is queued; `Location` points at it",
+                              "headers": {"Location": {"description": "/v1/jobs/{id} of the new job",
+                                                       "schema": {"type": "string"}}}},
+                        422: {"model": ValidationErrorBody, "description": "Invalid parameters (the message names the field and the rule), "
                                               "or an Idempotency-Key reused for a different request"},
                         429: {"description": "Over the owner's quota of queued/running jobs or estimated cost; "
                                               "`Retry-After` says when to try again"},
@@ -93,14 +95,14 @@ def list_jobs(
     return {"items": [jobs.job_to_dict(j) for j in items], "total": total}
 
 
-@router.get("/{job_id}", response_model=JobOut, responses={404: {"description": "Unknown job"}})
+@router.get("/{job_id}", response_model=JobOut, responses={404: {"model": ErrorBody, "description": "Unknown job"}})
 def get_job(job_id: str, db: DatabaseDep, principal: PrincipalDep):
     return jobs.job_to_dict(visible_job(db, job_id, principal))
 
 
 @router.get("/{job_id}/result", responses={
-    404: {"description": "Unknown job"},
-    409: {"description": "Not succeeded (yet): the body gives the status, the error and any stored diagnostic "
+    404: {"model": ErrorBody, "description": "Unknown job"},
+    409: {"model": NotSucceededBody, "description": "Not succeeded (yet): the body gives the status, the error and any stored diagnostic "
                          "or partial result (e.g. the Pareto front of a cancelled run)"}})
 def get_result(job_id: str, db: DatabaseDep, principal: PrincipalDep,
                include: Annotated[list[Literal["scan", "samples"]], Query(
@@ -121,7 +123,7 @@ def get_result(job_id: str, db: DatabaseDep, principal: PrincipalDep,
     return JSONResponse(compact(job.kind, result, set(include)), headers=headers)
 
 
-@router.post("/{job_id}/cancel", status_code=202, response_model=JobOut, responses={404: {"description": "Unknown job"}})
+@router.post("/{job_id}/cancel", status_code=202, response_model=JobOut, responses={404: {"model": ErrorBody, "description": "Unknown job"}})
 def cancel_job(job_id: str, db: DatabaseDep, principal: PrincipalDep):
     visible_job(db, job_id, principal)
     job = jobs.request_cancel(db, job_id)

@@ -17,6 +17,7 @@ from pydantic import Field, field_validator
 from app.access import bearer_scheme, principal_before_body
 from app.kinds.base import StrictModel
 from app.limits import count_lambert_problems
+from app.schemas import ValidationErrorBody
 from app.settings import get_settings
 from solvers.astro.lambert import lambert
 
@@ -132,7 +133,7 @@ class LambertResponse(StrictModel):
 @router.post("/lambert", response_model=LambertResponse,
              # the key is checked before the body (route class above); this declares the scheme in /docs
              dependencies=[Depends(bearer_scheme)],
-             responses={422: {"description": "A bad vector (length != 3, NaN, zero, absurd magnitude), tof_s "
+             responses={422: {"model": ValidationErrorBody, "description": "A bad vector (length != 3, NaN, zero, absurd magnitude), tof_s "
                                              "<= 0 or absurd, mu out of range, or more problems than the cap"}})
 def solve_lambert(request: Request, body: Annotated[LambertRequest, Body(openapi_examples={
     "curtis-5.2": {"summary": "Curtis example 5.2 (in m)", "value": {

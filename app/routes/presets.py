@@ -5,7 +5,7 @@ from fastapi import APIRouter, HTTPException
 
 from app.kinds import KINDS, PRESETS
 from app.params import resolve_params
-from app.schemas import PresetOut
+from app.schemas import ErrorBody, PresetOut
 
 router = APIRouter(prefix="/v1/presets", tags=["presets"])
 
@@ -21,7 +21,7 @@ def list_presets():
     return [_out(name) for name in PRESETS]
 
 
-@router.get("/{name}", response_model=PresetOut, responses={404: {"description": "Unknown preset"}})
+@router.get("/{name}", response_model=PresetOut, responses={404: {"model": ErrorBody, "description": "Unknown preset"}})
 def get_preset(name: str):
     if name not in PRESETS:
         raise HTTPException(status_code=404, detail=f"preset {name} not found; known: {sorted(PRESETS)}")

@@ -20,6 +20,7 @@ from app.access import PrincipalDep, visible_job
 from app.deps import DatabaseDep
 from app.results import plots as plot_defs
 from app.results.oem import has_oem, to_oem
+from app.schemas import ErrorBody
 from app.results.report import render_report
 from app.results.tables import tables_for, to_csv
 from app.summary import key_numbers
@@ -68,7 +69,7 @@ def _not_modified(etag: str, if_none_match: str | None) -> Response | None:
 
 
 @router.get("/{job_id}/plots", operation_id="list_plots",
-            responses={404: {"description": "Unknown job"}, 409: {"description": "Not succeeded (yet)"}})
+            responses={404: {"model": ErrorBody, "description": "Unknown job"}, 409: {"model": ErrorBody, "description": "Not succeeded (yet)"}})
 def list_plots(job_id: str, db: DatabaseDep, principal: PrincipalDep) -> dict:
     """The job's plots (PNG and SVG URLs), CSV tables and report."""
     job, result = _succeeded(db, job_id, principal)
@@ -86,7 +87,7 @@ def list_plots(job_id: str, db: DatabaseDep, principal: PrincipalDep) -> dict:
 @router.get("/{job_id}/plots/{name}.{fmt}", operation_id="get_plot",
             responses={200: {"content": {"image/png": {}, "image/svg+xml": {}}},
                        304: {"description": "Not modified (If-None-Match)"},
-                       404: {"description": "Unknown job or plot name"}, 409: {"description": "Not succeeded"}})
+                       404: {"model": ErrorBody, "description": "Unknown job or plot name"}, 409: {"model": ErrorBody, "description": "Not succeeded"}})
 async def get_plot(job_id: str, name: str, fmt: Literal["png", "svg"], db: DatabaseDep, principal: PrincipalDep,
                    if_none_match: Annotated[str | None, Header()] = None):
     job, result = await run_in_threadpool(_succeeded, db, job_id, principal)
@@ -102,7 +103,7 @@ async def get_plot(job_id: str, name: str, fmt: Literal["png", "svg"], db: Datab
 
 
 @router.get("/{job_id}/report.html", operation_id="get_report", response_class=HTMLResponse,
-            responses={404: {"description": "Unknown job"}, 409: {"description": "Not succeeded"}})
+            responses={404: {"model": ErrorBody, "description": "Unknown job"}, 409: {"model": ErrorBody, "description": "Not succeeded"}})
 async def get_report(job_id: str, db: DatabaseDep, principal: PrincipalDep,
                      if_none_match: Annotated[str | None, Header()] = None):
     """One self-contained HTML file (plots inlined as SVG, no external assets)."""
@@ -123,13 +124,16 @@ async def get_report(job_id: str, db: DatabaseDep, principal: PrincipalDep,
 
 
 @router.get("/{job_id}/result.csv", operation_id="get_result_csv", response_class=PlainTextResponse,
-            responses={200: {"content": {"text/csv": {}}}, 404: {"description": "Unknown job or table"},
-                       409: {"description": "Not succeeded"}})
+            responses={200: {"content": {"text/csv": {}}}, 404: {"model": ErrorBody, "description": "Unknown job or table"},
+                       409: {"model": ErrorBody, "description": "Not succeeded"}})
 def get_result_csv(job_id: str, db: DatabaseDep, principal: PrincipalDep,
-                   table: Annotated[str, Query(max_length=64, description="A table name from GET .../plots")]):
+                   table: Annotated[str | None, Query(max_length=64, description="A table name from GET .../plots")]
+                   = None):
     """One table of the result as CSV, with unit-bearing column headers (`t_s,altitude_m,...`)."""
     job, result = _succeeded(db, job_id, principal)
     tables = tables_for(job.kind, result)
+    if table is None:  # checked after the job, so another owner's job is a 404 either way
+        raise HTTPException(status_code=422, detail=f"table is required; this job has {sorted(tables)}")
     if table not in tables:
         raise HTTPException(status_code=404, detail=f"job {job_id} has no table {table[:64]}; "
                                                      f"known: {sorted(tables)}")
@@ -140,8 +144,8 @@ def get_result_csv(job_id: str, db: DatabaseDep, principal: PrincipalDep,
 
 @router.get("/{job_id}/result.oem", operation_id="get_result_oem", response_class=PlainTextResponse,
             responses={200: {"content": {"application/ccsds-oem": {}}},
-                       404: {"description": "Unknown job, or a job without a finite-thrust trajectory"},
-                       409: {"description": "Not succeeded"}})
+                       404: {"model": ErrorBody, "description": "Unknown job, or a job without a finite-thrust trajectory"},
+                       409: {"model": ErrorBody, "description": "Not succeeded"}})
 async def get_result_oem(job_id: str, db: DatabaseDep, principal: PrincipalDep,
                          if_none_match: Annotated[str | None, Header()] = None):
     """The intercept's finite-thrust trajectory as a CCSDS OEM 2.0 (KVN): EME2000, centre EARTH, TDB,
@@ -161,7 +165,7 @@ async def get_result_oem(job_id: str, db: DatabaseDep, principal: PrincipalDep,
 
 
 @router.get("/{job_id}/params", operation_id="get_resubmit_body",
-            responses={404: {"description": "Unknown job"}})
+            responses={404: {"model": ErrorBody, "description": "Unknown job"}})
 def get_resubmit_body(job_id: str, db: DatabaseDep, principal: PrincipalDep) -> dict:
     """The job's resolved parameters as a body `POST /v1/jobs` accepts unchanged (re-runs the job).
 
