@@ -10,12 +10,11 @@ eq. 30/31; velocities are reconstructed with eq. 25.  Near the parabola
 
 The batch is solved by one loop compiled with numba (``cache=True``: compiled
 once per machine, then loaded in ~0.3 s): each case costs a few hundred
-nanoseconds, about 3.4 million solves/s on one core, 4x the same algorithm in
-lamberthub called from a numba loop and 3x our former numpy version with
-masks (``benchmarks/lambert.py`` measures all three in one run).  The
-floating-point contract is relaxed only for contraction, reassociation and
-reciprocals (``fastmath`` without ``nnan``/``ninf``, so NaN checks stay
-exact): velocities agree with the numpy version to 5e-9 m/s.
+nanoseconds, about 3 million solves/s on one core, 3x the same algorithm in
+lamberthub called from a numba loop and 2.5x our former numpy version with
+masks (``benchmarks/lambert.py`` measures them in one run).  Strict IEEE
+arithmetic (no ``fastmath``): each case gives the same bits wherever it sits in
+a batch; velocities agree with the numpy version to 3e-10 m/s.
 
 Conventions (as in Izzo/pykep): the transfer is *prograde* when the angular
 momentum of the transfer has a positive z component.  For ``revolutions > 0``
@@ -39,9 +38,9 @@ _BATTIN_BAND = 0.01      # |x - 1| below which Lancaster's form loses digits (py
 _X_TOL = 1e-11           # Householder is third order: a step this small leaves ~1e-16 error
 _MAX_ITER = 35
 _MAX_ITER_TMIN = 12
-# contraction, reassociation and reciprocals only: no nnan/ninf, so the NaN tests below stay exact;
-# error_model="numpy": a division by zero gives inf/NaN (caught as not converged), not an exception
-_FAST = {"contract", "reassoc", "arcp"}
+# error_model="numpy": a division by zero gives inf/NaN (caught as not converged), not an exception.
+# No fastmath: with it LLVM vectorizes across cases and a case's last bits then depend on where it
+# sits in the batch (and on memory alignment), which made NSGA-II fronts differ from run to run.
 
 
 @dataclass
@@ -54,7 +53,7 @@ class LambertSolution:
     iterations: np.ndarray  # (N,) int, or 0-d for a single case
 
 
-@njit(cache=True, fastmath=_FAST, error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def _hyp2f1b(x):
     """Gauss hypergeometric 2F1(3, 1; 5/2; x) for |x| small (Izzo eq. 20)."""
     res = 1.0
@@ -67,7 +66,7 @@ def _hyp2f1b(x):
     return res
 
 
-@njit(cache=True, fastmath=_FAST, error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def _tof(x, lam, m):
     """Non-dimensional time of flight T(x) (Izzo eq. 18 with Battin's series near x=1)."""
     lam2 = lam * lam
@@ -86,7 +85,7 @@ def _tof(x, lam, m):
     return (x - lam * z - d / y) / e
 
 
-@njit(cache=True, fastmath=_FAST, error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def _dtof(x, t, lam):
     """First three derivatives of T(x) (Izzo eq. 22), given T at x."""
     lam2 = lam * lam
@@ -101,7 +100,7 @@ def _dtof(x, t, lam):
     return d1, d2, d3
 
 
-@njit(cache=True, fastmath=_FAST, error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def _householder(t, x, lam, m):
     """Third-order Householder iterations on T(x) = t (Izzo eq. 30): (x, iterations, converged)."""
     for it in range(1, _MAX_ITER + 1):
@@ -116,7 +115,7 @@ def _householder(t, x, lam, m):
     return x, _MAX_ITER, False
 
 
-@njit(cache=True, fastmath=_FAST, error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def _tmin(lam, m):
     """Minimum non-dimensional time of flight for m revolutions (Halley on dT/dx = 0)."""
     x = 0.0
@@ -131,7 +130,7 @@ def _tmin(lam, m):
     return t
 
 
-@njit(cache=True, fastmath=_FAST, error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def _solve(mu, r1, r2, tof, m, prograde, low_path, v1, v2, iters):
     """Every case of the batch; fills v1, v2 (NaN where unsolved) and iters, returns converged."""
     n = r1.shape[0]

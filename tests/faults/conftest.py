@@ -19,6 +19,7 @@ from app.main import create_app
 from app.migrate import upgrade
 from app.settings import Settings
 from tests.faults.servers import PostgresServer, RedisServer
+from tests.integration.live import stop_group
 
 ROOT = Path(__file__).resolve().parents[2]
 # The cheapest real job: the impulsive interception scan on a coarse grid (a few tens of ms).
@@ -61,14 +62,7 @@ class Stack:
             proc.wait(timeout=30)
 
     def stop(self, name: str) -> None:
-        proc = self.procs.pop(name, None)
-        if proc is not None and proc.poll() is None:
-            os.killpg(proc.pid, signal.SIGTERM)
-            try:
-                proc.wait(timeout=30)
-            except subprocess.TimeoutExpired:
-                os.killpg(proc.pid, signal.SIGKILL)
-                proc.wait(timeout=30)
+        stop_group(self.procs.pop(name, None))
 
     def close(self) -> None:
         for name in list(self.procs):
@@ -103,6 +97,13 @@ class Stack:
             if time.monotonic() - t0 > timeout:
                 return jobs, time.monotonic() - t0
             time.sleep(0.25)
+
+    def outcome(self, accepted: list[str], timeout: float = 180) -> tuple[dict, list[str], list[str]]:
+        """Wait for every accepted job; ``(jobs, lost, run_twice)``: not succeeded, started more than once."""
+        jobs, _ = self.wait_final(accepted, timeout=timeout)
+        executions = self.executions()
+        lost = [j for j in accepted if jobs.get(j, {}).get("status") != "succeeded"]
+        return jobs, lost, [j for j in accepted if executions[j] > 1]
 
     def executions(self) -> Counter:
         """How many times each job was started by a worker, from the worker logs."""

@@ -1,7 +1,11 @@
-"""A real HTTP server (uvicorn in a thread, 127.0.0.1, a free port) for clients that need one: CLI, browser."""
+"""Live processes for tests: a real HTTP server (uvicorn in a thread, 127.0.0.1, a free port) for clients that
+need one (CLI, browser), and stopping a child process group."""
 from __future__ import annotations
 
+import os
+import signal
 import socket
+import subprocess
 import threading
 import time
 from contextlib import contextmanager
@@ -32,3 +36,15 @@ def live_server(app) -> Iterator[str]:
     finally:
         server.should_exit = True
         thread.join(timeout=10)
+
+
+def stop_group(proc: subprocess.Popen | None, timeout: float = 30.0) -> None:
+    """SIGTERM a child's process group (its pool children too), SIGKILL if it lingers."""
+    if proc is None or proc.poll() is not None:
+        return
+    os.killpg(proc.pid, signal.SIGTERM)
+    try:
+        proc.wait(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait(timeout=timeout)
