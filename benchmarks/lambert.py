@@ -28,7 +28,7 @@ from solvers.astro.lambert import lambert  # noqa: E402
 
 MU = MU_EARTH
 BATCH = 10_000
-REPEATS = 7
+REPEATS = 25
 
 
 def cases(n: int, seed: int = 0):
