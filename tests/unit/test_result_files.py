@@ -72,6 +72,14 @@ def test_every_plot_renders_and_the_report_holds_them(solved, name):
                 "midcourse": {"pareto_front", "correction_times"},
                 "intercept": {"delta_v_scan", "porkchop", "thrust_mass", "hill_trajectory"}}[kind]
     assert set(names) == expected
+    if kind == "reentry":  # the re-propagated trajectory is kept and drawn over the solution
+        result = outcome.result
+        assert len(result["verification"]["trajectory"]["t_s"]) > 10
+        heating = next(p for p in plot_defs.plots_for(kind, result) if p.name == "heating")
+        without = {**result, "verification": {k: v for k, v in result["verification"].items() if k != "trajectory"}}
+        drawn = plot_defs.render(heating, result=result, params=params, title="t", fmt="png")
+        assert drawn == plot_defs.render(heating, result=result, params=params, title="t", fmt="png")  # repeatable
+        assert drawn != plot_defs.render(heating, result=without, params=params, title="t", fmt="png")
 
 
 def _num(text: str):
