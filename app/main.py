@@ -25,6 +25,7 @@ names carry the unit (`altitude_m`, `flight_path_deg`, `tf_s`).
 def create_app(settings: Settings | None = None) -> FastAPI:
     from app.routes import console, docs, events, health, jobs, lambert, presets, results, studies  # after settings: routes read the registry
     from app.broker import create_publisher
+    from app.schemas import ValidationErrorBody
 
     settings = settings or get_settings()
     # max_body_size: FastAPI's own cap (413 on Content-Length or streamed bytes, before parsing);
@@ -33,7 +34,10 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                   # operation ids are the route functions' names (submit_job, get_result, ...): what client
                   # generators turn into method names
                   generate_unique_id_function=lambda route: route.name,
-                  max_body_size=settings.max_body_bytes, dependencies=[Depends(reject_unsafe_text)])
+                  max_body_size=settings.max_body_bytes, dependencies=[Depends(reject_unsafe_text)],
+                  # every route can 422 (reject_unsafe_text); the body is the handler's, not FastAPI's default
+                  responses={422: {"model": ValidationErrorBody, "description": "Invalid request: the message "
+                                                                               "names the field and the rule"}})
     app.add_exception_handler(RequestValidationError, validation_error_handler)
     app.add_exception_handler(Exception, internal_error_handler)
     for exc_type in (OperationalError, DBAPIError, PoolTimeout):  # a database outage is a 503, not a 500
