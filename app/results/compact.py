@@ -11,7 +11,7 @@ import copy
 
 import numpy as np
 
-SCAN_POINTS = 600
+SCAN_POINTS = 300  # with the extrema and the finite-thrust block the default preset stays under 50 kB
 TRACES = 20
 
 

@@ -153,3 +153,17 @@ def test_the_oem_reads_back_with_the_library_and_starts_on_the_interceptors_orbi
     # and the last state is on the target (interception), within the solver's miss tolerance
     rt, _ = circular_state(r0=rt0, v0=vt0, mu=typed.mu_m3_s2, t=np.array([t[-1]]))
     assert np.linalg.norm(r[-1] - rt[0]) < typed.finite_thrust.miss_tolerance_m
+
+
+def test_the_default_body_of_the_default_intercept_preset_is_under_50_kb(solved):
+    import json
+
+    from app.results.compact import compact
+
+    _, _, outcome = solved["long-range-intercept"]
+    # this session solved the preset with the (opt-in) porkchop on; the default preset has none
+    result = {**outcome.result, "impulsive": {k: v for k, v in outcome.result["impulsive"].items() if k != "porkchop"}}
+    assert set(result) >= {"impulsive", "finite_thrust"}  # both methods, as the preset asks
+    size = len(json.dumps(compact("intercept", result, set()), separators=(",", ":")).encode())
+    full = len(json.dumps(result, separators=(",", ":")).encode())
+    assert size < 50_000 < 400_000 < full, (size, full)
