@@ -19,7 +19,7 @@ def test_long_range_intercept_impulsive(service):
     assert abs(best["t_man_s"] - 3142.5) < 0.5
     assert abs(best["fuel_kg"] - 271.4) < 0.05
     scan = result["impulsive"]["scan"]  # thinned by default (test_results_http checks every minimum survives)
-    assert len(scan["t_man_s"]) == len(scan["delta_v_mps"]) > 500 and scan["points_stored"] > 10000
+    assert len(scan["t_man_s"]) == len(scan["delta_v_mps"]) > 250 and scan["points_stored"] > 10000
     assert result["finite_thrust"] is None
 
 
