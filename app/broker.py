@@ -51,6 +51,15 @@ def create_publisher(settings: Settings | None = None) -> Celery:
     return app
 
 
+def redis_client(broker_url: str, *, socket_timeout: float = 5.0):
+    """A redis-py client for the broker URL; kombu's ``redis+socket:///path`` is redis-py's unix socket."""
+    import redis
+
+    if broker_url.startswith("redis+socket://"):
+        return redis.Redis(unix_socket_path=broker_url.removeprefix("redis+socket://"), socket_timeout=socket_timeout)
+    return redis.Redis.from_url(broker_url, socket_timeout=socket_timeout)
+
+
 def publish_job(app: Celery, settings: Settings, *, job_id: str, attempt: int, kind: str,
                 queue: str = QUEUE_JOBS) -> None:
     """Send the delivery message for ``attempt`` of a committed job, with its kind's time limits."""

@@ -7,7 +7,6 @@ local one), ``TRAJLAB_API_KEY`` the key.
 """
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 from pathlib import Path
@@ -34,13 +33,6 @@ def parse_set(items: list[str]) -> dict:
             if not isinstance(node, dict):
                 raise ValueError(f"--set {item!r}: {p} is set to a value and used as a group")
         node[leaf] = value
-    return out
-
-
-def deep_merge(base: dict, over: dict) -> dict:
-    out = dict(base)
-    for k, v in over.items():
-        out[k] = deep_merge(out[k], v) if isinstance(v, dict) and isinstance(out.get(k), dict) else v
     return out
 
 
@@ -105,6 +97,8 @@ def cmd_submit(args) -> int:
     params: dict = {}
     if args.params:
         params = json.loads(Path(args.params).read_text())
+    from app.params import deep_merge
+
     params = deep_merge(params, parse_set(args.set or []))
     client = _client(args)
     job = client.submit(args.kind, preset=args.preset, params=params or None, label=args.label)

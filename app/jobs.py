@@ -117,11 +117,6 @@ def get_result(db: Database, job_id: str) -> dict | None:
         return None if row is None else row.data
 
 
-def queued_jobs(db: Database) -> list[Job]:
-    with db.read() as s:
-        return list(s.scalars(select(Job).where(Job.status == "queued").order_by(Job.created_at)))
-
-
 def request_cancel(db: Database, job_id: str) -> Job | None:
     """A queued job is cancelled at once (it will never start); a running one gets
     the flag its solver polls; a finished one is left as it is."""

@@ -25,7 +25,7 @@ import threading
 import time
 
 from app import jobs, studies
-from app.broker import QUEUES, create_publisher, publish_job
+from app.broker import QUEUES, create_publisher, publish_job, redis_client
 from app.db import Database, get_database
 from app.settings import Settings
 
@@ -37,12 +37,16 @@ _UNACKED = "unacked"
 _UNACKED_INDEX = "unacked_index"
 
 
-def redis_client(broker_url: str):
-    import redis
-
-    if broker_url.startswith("redis+socket://"):
-        return redis.Redis(unix_socket_path=broker_url.removeprefix("redis+socket://"), socket_timeout=5)
-    return redis.Redis.from_url(broker_url, socket_timeout=5)
+def publish_or_defer(db: Database, celery, settings: Settings, job) -> bool:
+    """Publish a committed job's message; if the broker cannot take it, mark the job unpublished so
+    the recovery loop sends it once the broker is back (the row is the truth)."""
+    try:
+        publish_job(celery, settings, job_id=job.id, attempt=job.attempts, kind=job.kind, queue=job.queue)
+        return True
+    except Exception:
+        log.warning("could not publish job %s (broker unreachable?)", job.id, exc_info=True)
+        jobs.mark_unpublished(db, job.id)
+        return False
 
 
 def job_ids_in_broker(r, *, delivered_within_s: float) -> set[str]:
@@ -73,13 +77,7 @@ class Recovery:
         self._stop = threading.Event()
 
     def _publish(self, job) -> bool:
-        try:
-            publish_job(self.celery, self.settings, job_id=job.id, attempt=job.attempts, kind=job.kind,
-                        queue=job.queue)
-            return True
-        except Exception:
-            log.warning("could not publish job %s (broker unreachable?)", job.id, exc_info=True)
-            return False
+        return publish_or_defer(self.db, self.celery, self.settings, job)
 
     def tick(self) -> dict:
         """One pass; the counts of what it did."""
@@ -89,8 +87,6 @@ class Recovery:
             if self._publish(job):
                 done["requeued"] += 1
                 log.warning("re-queued job %s (attempt %d) after its heartbeat went stale", job.id, job.attempts)
-            else:
-                jobs.mark_unpublished(self.db, job.id)
         candidates = jobs.publish_candidates(self.db, older_than_s=s.republish_after_s)
         if candidates:
             present = job_ids_in_broker(self.redis, delivered_within_s=s.republish_after_s)
@@ -99,11 +95,7 @@ class Recovery:
             if sent:
                 done["republished"] = len(sent)
                 log.warning("re-published %d queued job(s) missing from the broker", len(sent))
-        for job in studies.advance_all(self.db):
-            if self._publish(job):
-                done["study_points"] += 1
-            else:
-                jobs.mark_unpublished(self.db, job.id)
+        done["study_points"] = sum(self._publish(job) for job in studies.advance_all(self.db))
         return done
 
     def run_forever(self) -> None:

@@ -96,9 +96,12 @@ def expand(base_params: dict, sweeps: list[dict]) -> list[Point]:
 def _point_job(study: Study, point_index: int, params: dict, values: dict) -> Job:
     label = f"{study.label or 'study ' + study.id[:8]} [{point_index}] " + \
         ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in values.items())
+    now = utcnow()
+    # published_at in the INSERT, as app.jobs.create_job: the caller publishes right after the commit
     return Job(kind=study.kind, params=params, label=label[:200], preset=study.preset, status="queued",
-               progress=0.0, message="queued", attempts=1, cancel_requested=False, created_at=utcnow(),
-               owner=study.owner, queue=study.queue, study_id=study.id, study_index=point_index)
+               progress=0.0, message="queued", attempts=1, cancel_requested=False, created_at=now,
+               published_at=now, owner=study.owner, queue=study.queue, study_id=study.id,
+               study_index=point_index)
 
 
 def create_study(db: Database, *, kind: str, preset: str | None, label: str | None, base_params: dict,
@@ -180,7 +183,7 @@ def advance(db: Database, study_id: str) -> list[Job]:
         rows = list(s.scalars(select(Job).where(Job.study_id == study_id).order_by(Job.created_at, Job.id)))
         latest = latest_by_index(rows)
         if study.cancel_requested:
-            _close(study, latest)
+            _close(study)
             return []
         if study.mode == "independent":
             if len(latest) < len(study.points) or any(j.status not in FINAL_STATUSES for j in latest.values()):
@@ -188,7 +191,7 @@ def advance(db: Database, study_id: str) -> list[Job]:
             retries = _retries_from_neighbours(study, rows, latest) or _polish(study, rows,
                                                                                  objective_values(s, study.kind, rows))
             if not retries:
-                _close(study, latest)
+                _close(study)
             for job in retries:
                 s.add(job)
             return retries
@@ -212,7 +215,7 @@ def advance(db: Database, study_id: str) -> list[Job]:
                 job = _point_job(study, i, _warm(study, point["params"], source), point["values"])
             else:
                 if i < 0:
-                    _close(study, latest)
+                    _close(study)
                     study.walk = walk
                     return []
                 job_i, right = latest.get(i), succeeded.get(i + 1)
@@ -276,7 +279,7 @@ def _from_job(params: dict, field: str):
         return None
 
 
-def _close(study: Study, latest: dict[int, Job]) -> None:
+def _close(study: Study) -> None:
     study.status = "cancelled" if study.cancel_requested else "finished"
     study.finished_at = utcnow()
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from celery import Celery
 
-from app.broker import celery_config, publish_job  # noqa: F401  (publish_job re-exported for tasks)
+from app.broker import celery_config
 from app.settings import Settings, get_settings
 
 

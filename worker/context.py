@@ -13,6 +13,7 @@ import threading
 import time
 
 from app import jobs
+from app.broker import redis_client
 from app.db import Database
 from app.settings import Settings
 
@@ -65,7 +66,7 @@ class WorkerJobContext:
             return run_monte_carlo(spec, samples, seed, chunk_size)
         from worker import fanout
 
-        return fanout.run_distributed(self.celery, fanout.redis_from_broker_url(self.settings.broker_url),
+        return fanout.run_distributed(self.celery, redis_client(self.settings.broker_url),
                                       spec=spec, samples=samples, seed=seed,
                                       chunk_size=int(chunk_size or threshold), should_stop=self.should_stop)
 

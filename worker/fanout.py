@@ -25,11 +25,6 @@ from solvers.uncertainty.montecarlo import merge_chunks, simulate_chunk
 KEY_TTL_S = 24 * 3600
 
 
-def redis_from_broker_url(url: str) -> redis.Redis:
-    """kombu's ``redis+socket:///path`` is redis-py's ``unix:///path``."""
-    if url.startswith("redis+socket://"):
-        return redis.Redis(unix_socket_path=url.removeprefix("redis+socket://"))
-    return redis.Redis.from_url(url)
 
 
 def _keys(run_id: str) -> tuple[str, str, str]:

@@ -21,12 +21,14 @@ from sqlalchemy.exc import DBAPIError, OperationalError
 from sqlalchemy.exc import TimeoutError as PoolTimeout
 
 from app import jobs, studies
+from app.broker import redis_client
+from app.recovery import publish_or_defer
 from app.db import Database, get_database
 from app.kinds import KINDS
 from app.kinds.base import JobCancelled, JobFailure, RunOutcome
 from app.settings import Settings, get_settings
 from worker import fanout
-from worker.celery_app import celery_app, publish_job
+from worker.celery_app import celery_app
 from worker.context import WorkerJobContext
 
 log = logging.getLogger("trajlab.worker")
@@ -74,8 +76,8 @@ def execute_job(db: Database, settings: Settings, job_id: str, attempt: int, *, 
         outcome = RunOutcome("failed", result=outcome.result, error=_time_limit_error(settings, claim.kind))
     message = {"succeeded": "done", "cancelled": "cancelled"}.get(outcome.status) or (outcome.error or {}).get("message", "failed")
     _store(db, settings, job_id, claim.attempt, outcome, message[:2000])
-    for nxt in studies.on_point_finished(db, job_id):  # a continuation study's next point
-        publish_job(celery_app, settings, job_id=nxt.id, attempt=nxt.attempts, kind=nxt.kind, queue=nxt.queue)
+    for nxt in studies.on_point_finished(db, job_id):  # a study's next point (or a retry)
+        publish_or_defer(db, celery_app, settings, nxt)
     return outcome.status
 
 
@@ -119,5 +121,5 @@ def run_job(self, job_id: str, attempt: int) -> str | None:
 @celery_app.task(name="trajlab.mc_chunk", bind=True)
 def mc_chunk(self, run_id: str, index: int, start: int, count: int, seed: int) -> bool:
     settings = get_settings()
-    return fanout.compute_chunk(fanout.redis_from_broker_url(settings.broker_url), run_id, index, start, count,
+    return fanout.compute_chunk(redis_client(settings.broker_url), run_id, index, start, count,
                                 seed, who=self.request.hostname or socket.gethostname())

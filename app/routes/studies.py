@@ -13,7 +13,7 @@ from pydantic import BaseModel, Field, model_validator
 
 from app import quota, studies
 from app.access import Principal, PrincipalDep
-from app.broker import publish_job
+from app.recovery import publish_or_defer
 from app.deps import CeleryDep, DatabaseDep, SettingsDep
 from app.kinds import KINDS, PRESETS
 from app.params import deep_merge, resolve_params
@@ -144,16 +144,8 @@ def submit_study(body: Annotated[StudySubmission, Body(openapi_examples={
 
 
 def _publish(db, celery, settings, created) -> None:
-    from app import jobs
-
     for job in created:
-        try:
-            publish_job(celery, settings, job_id=job.id, attempt=job.attempts, kind=job.kind, queue=job.queue)
-            mark = getattr(jobs, "mark_published", None)
-            if mark is not None:
-                mark(db, job.id)
-        except Exception:  # the re-publisher sends it once the broker is back (the row is the truth)
-            pass
+        publish_or_defer(db, celery, settings, job)
 
 
 @router.get("", response_model=list[StudyOut])
