@@ -13,6 +13,7 @@ import math
 
 from app.kinds.base import JobContext, KindSpec, Preset, RunOutcome, outcome_from_status, warm_start_from_job
 from app.kinds.intercept_params import InterceptParams
+from app.kinds.intercept_result_model import InterceptResult
 from app.kinds.intercept_results import comparison, finite_result, impulsive_result, key_numbers
 
 PAPER_NOTE = (
@@ -134,4 +135,5 @@ SPEC = KindSpec(
     presets=PRESETS,
     summary="Long-range interception: single-impulse Lambert scan (and porkchop) and finite-thrust fuel-optimal",
     key_numbers=key_numbers,
+    result_model=InterceptResult,
 )

@@ -16,6 +16,7 @@ import time
 
 from app.kinds.base import JobContext, KindSpec, Preset, RunOutcome, json_float, outcome_from_status
 from app.kinds.midcourse_params import MidcourseParams
+from app.kinds.midcourse_result_model import MidcourseResult
 from solvers import midcourse_cases as cases
 
 PAPER_NOTE = (
@@ -209,4 +210,5 @@ SPEC = KindSpec(
     time_limit_s=900.0,
     summary="Midcourse-correction timing on a transfer orbit: J2 coasts, Lambert re-targeting, NSGA-II front",
     key_numbers=key_numbers,
+    result_model=MidcourseResult,
 )

@@ -11,6 +11,7 @@ import math
 from app.kinds.base import JobContext, KindSpec, Preset, RunOutcome, outcome_from_status, warm_start_from_job
 from app.kinds.reentry_edge import guess_from_result, reentry_result, to_problem
 from app.kinds.reentry_params import BETTS_HEAT_LIMIT_W_M2, PAPER000_TERMINAL_ALTITUDE_M, ReentryParams
+from app.kinds.result_models import ReentryResult
 from solvers.models import shuttle as sh
 
 _BETTS_NOTE = ("Betts shuttle (Practical Methods for Optimal Control, sec. 6.3): entry at 260000 ft, "
@@ -80,6 +81,6 @@ def run(params: ReentryParams, ctx: JobContext) -> RunOutcome:
     return outcome_from_status(sol.status, result)
 
 
-SPEC = KindSpec(kind="reentry", params_model=ReentryParams, run=run, presets=PRESETS,
+SPEC = KindSpec(kind="reentry", params_model=ReentryParams, run=run, presets=PRESETS, result_model=ReentryResult,
                 summary="Lifting reentry (Space Shuttle, Betts benchmark and paper 000) by direct "
                         "multiple shooting with IPOPT")

@@ -22,6 +22,7 @@ from app.kinds.base import (
 from app.kinds.reentry_edge import (guess_from_result, json_list, objective_block, reentry_result,
                                     result_blocks, to_problem)
 from app.kinds.reentry_params import BETTS_HEAT_LIMIT_W_M2, ReentryParams, ReentryPathLimits
+from app.kinds.robust_result_model import RobustReentryResult
 from solvers.models.reentry_state import LATITUDE, STATES
 
 
@@ -268,5 +269,6 @@ def run(params: RobustReentryParams, ctx: JobContext) -> RunOutcome:
 
 
 SPEC = KindSpec(kind="robust_reentry", params_model=RobustReentryParams, run=run, presets=PRESETS, time_limit_s=1800.0,
+                result_model=RobustReentryResult,
                 summary="Robust reentry (paper 001): CADET mean/covariance propagation, mean - k sigma design, "
                         "Monte Carlo validation of the deterministic and robust controls")

@@ -9,27 +9,19 @@ import numpy as np
 import pytest
 
 from app.kinds import KINDS, PRESETS
-from app.params import resolve_params
 from app.results import plots as plot_defs
 from app.results.report import render_report
 from app.results.tables import tables_for, to_csv
 from app.summary import key_numbers
-from tests.support import RecordingContext
+from tests.preset_results import solve_preset
 
 FAST = [name for name, p in PRESETS.items() if p.kind != "robust_reentry"]
-OVERRIDES = {"long-range-intercept": {"porkchop": {"enabled": True}}}
 
 
 @pytest.fixture(scope="module")
 def solved():
-    out = {}
-    for name in FAST:
-        preset = PRESETS[name]
-        spec = KINDS[preset.kind]
-        params = resolve_params(spec, preset.params, OVERRIDES.get(name))
-        outcome = spec.run(spec.params_model.model_validate(params), RecordingContext())
-        out[name] = (preset.kind, params, outcome)
-    return out
+    # solved once per session (tests/preset_results.py), the intercept with its porkchop on
+    return {name: solve_preset(name) for name in FAST}
 
 
 def _check_png(data: bytes, size_in: tuple[float, float]) -> None:
@@ -109,10 +101,7 @@ def test_csv_tables_round_trip_the_json_numbers(solved, name):
 
 @pytest.mark.slow
 def test_robust_plots_render():
-    preset = PRESETS["robust-max-crossrange"]
-    spec = KINDS["robust_reentry"]
-    params = resolve_params(spec, preset.params, {"monte_carlo": {"samples": 2000}})
-    outcome = spec.run(spec.params_model.model_validate(params), RecordingContext())
+    _, params, outcome = solve_preset("robust-max-crossrange")  # 2000 samples
     assert outcome.status == "succeeded"
     names = [p.name for p in _check_all("robust_reentry", params, outcome.result)]
     assert {"designs", "envelopes", "terminal_scatter", "heating"} <= set(names)
@@ -120,9 +109,8 @@ def test_robust_plots_render():
 
 @pytest.fixture(scope="module")
 def finite_intercept():
-    spec = KINDS["intercept"]
-    params = resolve_params(spec, PRESETS["long-range-intercept"].params, {"methods": ["finite_thrust"]})
-    return params, spec.run(spec.params_model.model_validate(params), RecordingContext()).result
+    _, params, outcome = solve_preset("long-range-intercept")  # both methods: the finite-thrust one is written
+    return params, outcome.result
 
 
 def test_the_oem_reads_back_with_the_library_and_starts_on_the_interceptors_orbit(finite_intercept, tmp_path):
