@@ -19,7 +19,8 @@ from app.kinds.base import StrictModel
 from app.limits import count_lambert_problems
 from app.schemas import ValidationErrorBody
 from app.settings import get_settings
-from solvers.astro.lambert import lambert
+from solvers.astro.earth import AE_EARTH
+from solvers.astro.lambert import arc_min_radius, lambert
 
 
 
@@ -113,6 +114,11 @@ class LambertRequest(StrictModel):
                             examples=[MU_EARTH_M3_S2])
     problems: list[LambertProblem] = Field(min_length=1, description="The cases to solve (up to the "
                                            "configured cap, TRAJLAB_LAMBERT_MAX_PROBLEMS)")
+    body_radius_m: float | None = Field(AE_EARTH, gt=0, le=MAX_POSITION_M,
+                                        description="Radius of the central body: a transfer whose periapsis_m is "
+                                        "below it passes through the planet (through_planet). Default: the "
+                                        "Earth's equatorial radius (WGS-84); null: no check",
+                                        examples=[AE_EARTH])
 
 
 class LambertAnswer(StrictModel):
@@ -121,6 +127,12 @@ class LambertAnswer(StrictModel):
     converged: bool = Field(description="False where no solution exists (e.g. a multi-revolution transfer "
                             "shorter than its minimum time, or r1 and r2 collinear)")
     iterations: int = Field(description="Householder iterations")
+    periapsis_m: float | None = Field(description="Smallest radius along the arc actually flown: the transfer "
+                                      "orbit's periapsis radius if the arc passes through periapsis between r1 "
+                                      "and r2, else min(|r1|, |r2|); null if no solution")
+    through_planet: bool | None = Field(description="periapsis_m is below body_radius_m: the arc passes through "
+                                        "the central body (the solution is still returned and converged); null "
+                                        "if no solution or body_radius_m is null")
     revolutions: int
     prograde: bool
     low_path: bool
@@ -147,7 +159,9 @@ def solve_lambert(request: Request, body: Annotated[LambertRequest, Body(openapi
     `cw = not prograde` (the transfer's angular momentum has a positive z component). In a plane
     that contains the z axis the normal's z component is zero and `prograde` picks the way by the
     sign of that normal as computed from r1 x r2. Positions beyond 2.6e13 m, times of flight beyond
-    1e10 s and mu outside [1e5, 1e24] m^3/s^2 are a 422."""
+    1e10 s and mu outside [1e5, 1e24] m^3/s^2 are a 422. Each answer carries `periapsis_m`, the
+    smallest radius along the arc flown, and `through_planet`, whether it is below `body_radius_m`
+    (default the Earth's equatorial radius; null for no check)."""
     cap = _settings(request).lambert_max_problems
     if len(body.problems) > cap:  # the exact count (the raw-body count above is an early bound)
         raise RequestValidationError([_too_many(cap, len(body.problems))])
@@ -160,14 +174,20 @@ def solve_lambert(request: Request, body: Annotated[LambertRequest, Body(openapi
     v2 = np.full((n, 3), np.nan)
     conv = np.zeros(n, dtype=bool)
     iters = np.zeros(n, dtype=int)
+    rmin = np.full(n, np.nan)
     for key in sorted(set(keys)):
         idx = np.array([k for k, kk in enumerate(keys) if kk == key])
         sol = lambert(body.mu_m3_s2, r1[idx], r2[idx], tof[idx],
                       revolutions=key[0], prograde=key[1], low_path=key[2])
         v1[idx], v2[idx], conv[idx], iters[idx] = sol.v1, sol.v2, sol.converged, sol.iterations
+        rmin[idx] = arc_min_radius(body.mu_m3_s2, r1[idx], sol.v1, r2[idx], sol.v2, revolutions=key[0])
+    ok = conv & np.isfinite(rmin)
+    radius = body.body_radius_m
     return LambertResponse(solutions=[
         LambertAnswer(v1_mps=v1[k].tolist() if conv[k] else None, v2_mps=v2[k].tolist() if conv[k] else None,
-                      converged=bool(conv[k]), iterations=int(iters[k]), revolutions=keys[k][0],
-                      prograde=keys[k][1], low_path=keys[k][2])
+                      converged=bool(conv[k]), iterations=int(iters[k]),
+                      periapsis_m=float(rmin[k]) if ok[k] else None,
+                      through_planet=bool(rmin[k] < radius) if ok[k] and radius is not None else None,
+                      revolutions=keys[k][0], prograde=keys[k][1], low_path=keys[k][2])
         for k in range(n)
     ])

@@ -118,3 +118,65 @@ def test_degenerate_times_of_flight_are_unconverged_not_errors():
     r1, r2 = np.array([[5e6, 1e7, 2.1e6]] * 3), np.array([[-1.46e7, 2.5e6, 7e6]] * 3)
     sol = lambert(398600.4418e9, r1, r2, np.array([5e-324, 0.0, np.inf]))
     assert not sol.converged.any() and np.isnan(sol.v1).all()
+
+
+def _dense_min_radius(mu, r1, v1, tof, points=4001):
+    """Smallest |r| on the flown arc by brute force: a dense grid, then a bounded
+    minimization around the grid's minimum (a fast periapsis passage falls between points)."""
+    from scipy.optimize import minimize_scalar
+
+    ts = np.linspace(0.0, tof, points)
+    d = np.linalg.norm(propagate(mu, r1, v1, ts)[0], axis=1)
+    j = int(np.argmin(d))
+    res = minimize_scalar(lambda t: np.linalg.norm(propagate(mu, r1, v1, t)[0]),
+                          bounds=(ts[max(j - 1, 0)], ts[min(j + 1, ts.size - 1)]), method="bounded",
+                          options={"xatol": 1e-7})
+    return min(float(d.min()), float(res.fun))
+
+
+@pytest.mark.parametrize("revs,prograde", [(0, True), (0, False), (1, True)])
+def test_arc_min_radius_is_the_smallest_radius_flown(revs, prograde):
+    from solvers.astro.lambert import arc_min_radius
+
+    rng = np.random.default_rng(11 + revs)
+    n = 25
+    r1 = rng.normal(size=(n, 3))
+    r1 *= rng.uniform(6700e3, 42000e3, n)[:, None] / np.linalg.norm(r1, axis=1)[:, None]
+    r2 = rng.normal(size=(n, 3))
+    r2 *= rng.uniform(6700e3, 42000e3, n)[:, None] / np.linalg.norm(r2, axis=1)[:, None]
+    rm = 0.5 * (np.linalg.norm(r1, axis=1) + np.linalg.norm(r2, axis=1))
+    tof = rng.uniform(0.1, 1.5, n) * 2 * np.pi * np.sqrt(rm ** 3 / MU) * (1 + 2 * revs)
+    sol = lambert(MU, r1, r2, tof, revolutions=revs, prograde=prograde)
+    rmin = arc_min_radius(MU, r1, sol.v1, r2, sol.v2, revolutions=revs)
+    assert np.array_equal(np.isfinite(rmin), sol.converged)
+    ok = np.flatnonzero(sol.converged)
+    assert ok.size >= 15
+    brute = np.array([_dense_min_radius(MU, r1[k], sol.v1[k], tof[k], 4001 * (1 + 4 * revs)) for k in ok])
+    np.testing.assert_allclose(rmin[ok], brute, rtol=1e-7)
+    # periapsis inside the arc for some, an end point for others: both rules are exercised
+    ends = np.minimum(np.linalg.norm(r1, axis=1), np.linalg.norm(r2, axis=1))[ok]
+    inside = rmin[ok] < ends * (1 - 1e-9)
+    assert inside.any() and (revs > 0 or (~inside).any())
+
+
+def test_arc_min_radius_hand_cases():
+    from solvers.astro.lambert import arc_min_radius
+
+    # Half a Hohmann ellipse from periapsis (7000 km) to apoapsis (42000 km), slightly off the
+    # straight line so the plane is defined: the smallest radius is r1 itself, 7000 km.
+    r1 = np.array([7000e3, 0.0, 0.0])
+    ang = np.radians(179.0)
+    r2 = 42000e3 * np.array([np.cos(ang), np.sin(ang), 0.0])
+    a = 0.5 * (7000e3 + 42000e3)
+    sol = lambert(MU, r1, r2, np.pi * np.sqrt(a ** 3 / MU) * 0.995)
+    assert sol.converged
+    assert arc_min_radius(MU, r1, sol.v1, r2, sol.v2) == pytest.approx(7000e3, rel=1e-3)
+    # Nearly a whole lap of that ellipse, from apoapsis the long way round (358 deg prograde) to
+    # just short of apoapsis again: periapsis near 7000 km is passed between the ends.
+    r3 = 42000e3 * np.array([np.cos(ang - np.radians(2.0)), np.sin(ang - np.radians(2.0)), 0.0])
+    sol = lambert(MU, r2, r3, 2 * np.pi * np.sqrt(a ** 3 / MU) * 0.99, prograde=True)
+    assert sol.converged
+    rmin = arc_min_radius(MU, r2, sol.v1, r3, sol.v2)
+    assert 5000e3 < rmin < 9000e3
+    assert rmin == pytest.approx(_dense_min_radius(MU, r2, sol.v1, 2 * np.pi * np.sqrt(a ** 3 / MU) * 0.99),
+                                 rel=1e-7)

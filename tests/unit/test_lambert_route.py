@@ -103,3 +103,52 @@ def test_absurd_magnitudes_are_422(client, problem, mu):
     body = {"problems": [problem], **({"mu_m3_s2": mu} if mu else {})}
     r = client.post("/v1/lambert", json=body)
     assert r.status_code == 422, r.text
+
+
+def test_periapsis_and_through_planet_flag(client):
+    # A near-radial plunge from 20000 km to 30000 km on the other side in a short time dives
+    # through the Earth; a Hohmann-like half ellipse from 7000 km to 42000 km does not.
+    ang = math.radians(179.0)
+    plunge = {"r1_m": [20000e3, 0.0, 0.0], "r2_m": [30000e3 * math.cos(ang), 30000e3 * math.sin(ang), 0.0],
+              "tof_s": 3000.0}
+    a = 0.5 * (7000e3 + 42000e3)
+    hohmann = {"r1_m": [7000e3, 0.0, 0.0], "r2_m": [42000e3 * math.cos(ang), 42000e3 * math.sin(ang), 0.0],
+               "tof_s": math.pi * math.sqrt(a ** 3 / MU) * 0.995}
+    body = {"mu_m3_s2": MU, "problems": [plunge, hohmann]}
+    resp = client.post("/v1/lambert", json=body)
+    assert resp.status_code == 200
+    s_plunge, s_hohmann = resp.json()["solutions"]
+    assert s_plunge["converged"] and s_hohmann["converged"]
+    assert s_plunge["periapsis_m"] < 6378137.0 and s_plunge["through_planet"] is True
+    assert s_hohmann["periapsis_m"] == pytest.approx(7000e3, rel=1e-3) and s_hohmann["through_planet"] is False
+    # the periapsis is the smallest radius along the propagated arc
+    ts = np.linspace(0.0, plunge["tof_s"], 20001)
+    r, _ = propagate(MU, np.array(plunge["r1_m"]), np.array(s_plunge["v1_mps"]), ts)
+    assert s_plunge["periapsis_m"] == pytest.approx(np.linalg.norm(r, axis=1).min(), rel=1e-4)
+    # another body's radius, and no check at all
+    small = client.post("/v1/lambert", json={**body, "body_radius_m": 1000.0}).json()["solutions"]
+    assert [s["through_planet"] for s in small] == [s_plunge["periapsis_m"] < 1000.0, False]
+    none = client.post("/v1/lambert", json={**body, "body_radius_m": None}).json()["solutions"]
+    assert [s["through_planet"] for s in none] == [None, None]
+    assert none[0]["periapsis_m"] == s_plunge["periapsis_m"]
+    assert client.post("/v1/lambert", json={**body, "body_radius_m": -1.0}).status_code == 422
+
+
+def test_random_cases_through_the_planet_are_flagged(client):
+    # Random LEO..GEO geometry: a good share of the arcs dip below the Earth's surface (issue 15
+    # saw 60 of 178 unflagged); every such answer is now flagged, and only those.
+    rng = np.random.default_rng(3)
+    problems = []
+    for _ in range(200):
+        r1 = rng.normal(size=3)
+        r2 = rng.normal(size=3)
+        r1 *= rng.uniform(6700e3, 42000e3) / np.linalg.norm(r1)
+        r2 *= rng.uniform(6700e3, 42000e3) / np.linalg.norm(r2)
+        problems.append({"r1_m": r1.tolist(), "r2_m": r2.tolist(), "tof_s": float(rng.uniform(600.0, 40000.0))})
+    sols = client.post("/v1/lambert", json={"mu_m3_s2": MU, "problems": problems}).json()["solutions"]
+    flagged = [s["through_planet"] for s in sols if s["converged"]]
+    assert all(s["converged"] for s in sols)
+    assert 20 <= sum(flagged) <= 150
+    assert all(s["through_planet"] == (s["periapsis_m"] < 6378137.0) for s in sols)
+    ends = [min(np.linalg.norm(p["r1_m"]), np.linalg.norm(p["r2_m"])) for p in problems]
+    assert all(s["periapsis_m"] <= e * (1 + 1e-12) for s, e in zip(sols, ends))
