@@ -7,6 +7,7 @@ flies a circular orbit given by the job's parameters, so its inertial state at a
 (``REF_FRAME = EME2000``, ``CENTER_NAME = EARTH``).  The parameters have no calendar epoch (t0 = 0),
 so t0 is written as J2000 (2000-01-01T12:00:00 TDB): a reader shifts the epochs to its own t0.
 Written and read by the maintained ``oem`` package; units km and km/s as the standard asks.
+:func:`write_oem` is the writer the midcourse export (:mod:`app.results.midcourse_oem`) uses too.
 """
 from __future__ import annotations
 
@@ -33,7 +34,10 @@ def _spaced(t: np.ndarray, *, min_step_s: float) -> np.ndarray:
 
 
 def has_oem(kind: str, result: dict) -> bool:
-    """Whether the job has a trajectory to write (intercept with a finite-thrust solution)."""
+    """Whether the job has a trajectory to write (intercept with a finite-thrust solution, or a
+    midcourse front: :mod:`app.results.midcourse_oem`)."""
+    if kind == "midcourse":
+        return bool(result.get("pareto_front"))
     return kind == "intercept" and bool(((result.get("finite_thrust") or {}).get("trajectory") or {}).get("t_s"))
 
 
@@ -57,23 +61,37 @@ def inertial_states(*, result: dict, params: dict) -> tuple[np.ndarray, np.ndarr
 
 def to_oem(*, result: dict, params: dict, object_name: str) -> str:
     """The OEM text (KVN) of the interceptor's trajectory."""
+    t, r, v = inertial_states(result=result, params=params)
+    return write_oem([(t, r, v)], object_name=object_name)
+
+
+def write_oem(segments: list[tuple[np.ndarray, np.ndarray, np.ndarray]], *, object_name: str,
+              comments: tuple[str, ...] = ()) -> str:
+    """OEM 2.0 text (KVN) of one object: one data segment per ``(t_s, r_m, v_mps)`` (consecutive,
+    Earth-centred inertial, km and km/s in the file), ``comments`` at the start of each segment's
+    metadata (the library writes none, so they are inserted into its text)."""
     from astropy.time import Time
     from oem import OrbitEphemerisMessage
     from oem.components import EphemerisSegment, HeaderSection, MetaDataSection
 
-    t, r, v = inertial_states(result=result, params=params)
-    epochs = [Time(T0 + dt.timedelta(seconds=float(s)), format="datetime", scale="tdb", precision=6) for s in t]
     fmt = "%Y-%m-%dT%H:%M:%S.%f"
-    meta = MetaDataSection({
-        "OBJECT_NAME": object_name[:64], "OBJECT_ID": object_name[:64], "CENTER_NAME": "EARTH",
-        "REF_FRAME": "EME2000", "TIME_SYSTEM": "TDB",
-        "START_TIME": (T0 + dt.timedelta(seconds=float(t[0]))).strftime(fmt),
-        "STOP_TIME": (T0 + dt.timedelta(seconds=float(t[-1]))).strftime(fmt)})
-    rows = (tuple(epochs), *(tuple(c) for c in (r / 1e3).T), *(tuple(c) for c in (v / 1e3).T))
+    out = []
+    for t, r, v in segments:
+        epochs = [Time(T0 + dt.timedelta(seconds=float(s)), format="datetime", scale="tdb", precision=6) for s in t]
+        meta = MetaDataSection({
+            "OBJECT_NAME": object_name[:64], "OBJECT_ID": object_name[:64], "CENTER_NAME": "EARTH",
+            "REF_FRAME": "EME2000", "TIME_SYSTEM": "TDB",
+            "START_TIME": (T0 + dt.timedelta(seconds=float(t[0]))).strftime(fmt),
+            "STOP_TIME": (T0 + dt.timedelta(seconds=float(t[-1]))).strftime(fmt)})
+        rows = (tuple(epochs), *(tuple(c) for c in (r / 1e3).T), *(tuple(c) for c in (v / 1e3).T))
+        out.append(EphemerisSegment(meta, rows))
     header = HeaderSection({"CCSDS_OEM_VERS": "2.0", "ORIGINATOR": "trajlab",
                             "CREATION_DATE": dt.datetime.now(dt.timezone.utc).strftime(fmt)})
-    message = OrbitEphemerisMessage(header, [EphemerisSegment(meta, rows)])
+    message = OrbitEphemerisMessage(header, out)
     with tempfile.TemporaryDirectory() as tmp:  # the library writes files only
         path = Path(tmp) / "result.oem"
         message.save_as(path, file_format="kvn")
-        return path.read_text()
+        text = path.read_text()
+    if comments:
+        text = text.replace("META_START\n", "META_START\n" + "".join(f"COMMENT {c}\n" for c in comments))
+    return text

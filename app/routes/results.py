@@ -19,6 +19,7 @@ from app import jobs
 from app.access import PrincipalDep, visible_job
 from app.deps import DatabaseDep
 from app.results import plots as plot_defs
+from app.results.midcourse_oem import default_point, midcourse_to_oem
 from app.results.oem import has_oem, to_oem
 from app.schemas import ErrorBody
 from app.results.report import render_report
@@ -144,24 +145,46 @@ def get_result_csv(job_id: str, db: DatabaseDep, principal: PrincipalDep,
 
 @router.get("/{job_id}/result.oem", operation_id="get_result_oem", response_class=PlainTextResponse,
             responses={200: {"content": {"application/ccsds-oem": {}}},
-                       404: {"model": ErrorBody, "description": "Unknown job, or a job without a finite-thrust trajectory"},
+                       304: {"description": "Not modified (If-None-Match)"},
+                       404: {"model": ErrorBody, "description": "Unknown job, a job without a trajectory to write, "
+                                                                "or no such front point"},
                        409: {"model": ErrorBody, "description": "Not succeeded"}})
 async def get_result_oem(job_id: str, db: DatabaseDep, principal: PrincipalDep,
+                         point: Annotated[int | None, Query(ge=0, le=100_000, description=(
+                             "midcourse: the Pareto-front point whose corrected flight is written "
+                             "(default: the point of least delta-v)"))] = None,
+                         trajectory: Annotated[Literal["corrected", "nominal"], Query(description=(
+                             "midcourse: `corrected` (the chosen point's flight, one segment per coast) or "
+                             "`nominal` (the error-free transfer)"))] = "corrected",
                          if_none_match: Annotated[str | None, Header()] = None):
-    """The intercept's finite-thrust trajectory as a CCSDS OEM 2.0 (KVN): EME2000, centre EARTH, TDB,
-    km and km/s; t0 written as J2000 because the parameters have no calendar epoch.  Midcourse
-    results hold no trajectory, so they have no OEM."""
+    """A trajectory as a CCSDS OEM 2.0 (KVN): centre EARTH, REF_FRAME EME2000, TDB, km and km/s; t0
+    written as J2000 because the parameters have no calendar epoch.  intercept: the finite-thrust
+    interceptor (Hill states converted with the target's exact circular orbit).  midcourse: the
+    corrected flight of a front point or the nominal transfer, re-flown with the solver's J2
+    propagator and Lambert impulses, in the Earth-centred inertial frame of the launch frame (z the
+    spin axis, x the launch meridian at t0; the COMMENT lines say so)."""
     job, result = await run_in_threadpool(_succeeded, db, job_id, principal)
     if not has_oem(job.kind, result):
-        raise HTTPException(status_code=404, detail=f"job {job_id} has no finite-thrust trajectory to write")
-    etag = _etag(job_id, "oem")
+        raise HTTPException(status_code=404, detail=f"job {job_id} has no trajectory to write")
+    if job.kind == "midcourse":
+        n = len(result["pareto_front"])
+        point = default_point(result) if point is None else point
+        if point >= n:
+            raise HTTPException(status_code=404, detail=f"job {job_id} has no front point {point} ({n} points)")
+        view = ("nominal",) if trajectory == "nominal" else ("point", str(point))
+        make = lambda: midcourse_to_oem(result=result, params=job.params, object_name=job.label or job.id,  # noqa: E731
+                                        point=point, trajectory=trajectory)
+    else:
+        view = ()
+        make = lambda: to_oem(result=result, params=job.params, object_name=job.label or job.id)  # noqa: E731
+    etag = _etag(job_id, "oem", *view)
     if (hit := _not_modified(etag, if_none_match)) is not None:
         return hit
-    body = await run_in_threadpool(_cached, (job_id, "result", "oem"), lambda: to_oem(
-        result=result, params=job.params, object_name=job.label or job.id).encode())
+    body = await run_in_threadpool(_cached, (job_id, "result", "oem", *view), lambda: make().encode())
+    name = "-".join((job_id, *view))
     return Response(body, media_type="application/ccsds-oem",
                     headers={"ETag": etag, "Cache-Control": CACHE_CONTROL,
-                             "Content-Disposition": f'attachment; filename="{job_id}.oem"'})
+                             "Content-Disposition": f'attachment; filename="{name}.oem"'})
 
 
 @router.get("/{job_id}/params", operation_id="get_resubmit_body",

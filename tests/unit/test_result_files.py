@@ -155,3 +155,99 @@ def test_the_default_body_of_the_default_intercept_preset_is_under_50_kb(solved)
     size = len(json.dumps(compact("intercept", result, set()), separators=(",", ":")).encode())
     full = len(json.dumps(result, separators=(",", ":")).encode())
     assert size < 50_000 < 400_000 < full, (size, full)
+
+
+def _read_oem(text: str, tmp_path):
+    from oem import OrbitEphemerisMessage
+
+    path = tmp_path / "m.oem"
+    path.write_text(text)
+    return OrbitEphemerisMessage.open(path)
+
+
+def test_the_midcourse_oem_reads_back_and_flies_the_front_points_corrections(tmp_path):
+    from app.kinds.midcourse import to_problem
+    from app.results.midcourse_oem import default_point, midcourse_segments, midcourse_to_oem
+    from solvers.midcourse_trajectory import inertial_rotation
+
+    _, params, outcome = solve_preset("upper-stage-table3")
+    result = outcome.result
+    front = result["pareto_front"]
+    problem = to_problem(KINDS["midcourse"].params_model.model_validate(params))
+    m = inertial_rotation(problem.frame)
+    np.testing.assert_allclose(m @ m.T, np.eye(3), atol=1e-15)
+    np.testing.assert_allclose(m @ problem.frame.spin_axis, [0, 0, 1], atol=1e-15)  # z: the spin axis
+    assert abs((m @ problem.frame.r0)[1]) < 1e-6  # the launch point lies in the x-z plane (its meridian)
+    r_target = m @ (problem.r_target + problem.frame.r0)
+    i = next(k for k, p in enumerate(front) if len(p["times_s"]) == 3)  # (1000, 5000, 8000) s
+    point = front[i]
+    message = _read_oem(midcourse_to_oem(result=result, params=params, object_name="job-1", point=i), tmp_path)
+    segments, comments = midcourse_segments(result=result, params=params, point=i)
+    assert len(message.segments) == len(segments) == 4 and "launch meridian" in comments[2]
+    for seg, (t, r, v) in zip(message.segments, segments):
+        assert seg.metadata["REF_FRAME"] == "EME2000" and seg.metadata["CENTER_NAME"] == "EARTH"
+        states = list(seg.states)
+        assert len(states) == len(t) >= 2
+        for s, ri, vi in zip(states, r, v):  # what was written is what the library reads, to 1e-6
+            np.testing.assert_allclose(s.position * 1e3, ri, rtol=1e-6)
+            np.testing.assert_allclose(s.velocity * 1e3, vi, rtol=1e-6)
+    # the flight is the front point's: it starts from the erroneous initial state, each boundary is
+    # one of the stored impulses (position continuous, velocity jumps by it), and it lands with the
+    # point's position and velocity errors
+    t0, r0, v0 = segments[0][0][0], segments[0][1][0], segments[0][2][0]
+    assert t0 == 0.0
+    np.testing.assert_allclose(r0, m @ (problem.r0 + problem.frame.r0 + problem.position_error), rtol=1e-12)
+    np.testing.assert_allclose(v0, m @ (problem.v0 + problem.velocity_error), rtol=1e-12)
+    for k, impulse in enumerate(point["impulses_mps"]):
+        (ta, ra, va), (tb, rb, vb) = segments[k], segments[k + 1]
+        assert ta[-1] == tb[0] == point["times_s"][k]
+        np.testing.assert_allclose(ra[-1], rb[0], rtol=0, atol=1e-9)
+        np.testing.assert_allclose(vb[0] - va[-1], m @ np.asarray(impulse), rtol=0, atol=1e-9)
+    t_end, r_end, v_end = segments[-1][0][-1], segments[-1][1][-1], segments[-1][2][-1]
+    assert t_end == params["tf_s"]
+    assert np.linalg.norm(r_end - r_target) == pytest.approx(point["position_error_m"], rel=1e-6)
+    assert np.linalg.norm(v_end - m @ problem.v_target) == pytest.approx(point["velocity_error_mps"], rel=1e-6)
+    # the default is the point of least delta-v (here no correction: the uncorrected coast, one segment)
+    assert default_point(result) == int(np.argmin([p["delta_v_mps"] for p in front]))
+    # the nominal transfer lands within the nominal's own miss of the target
+    nominal, _ = midcourse_segments(result=result, params=params, point=i, trajectory="nominal")
+    assert len(nominal) == 1 and nominal[0][0][-1] == params["tf_s"]
+    assert np.linalg.norm(nominal[0][1][-1] - r_target) == pytest.approx(result["nominal_miss"]["position_m"], rel=1e-6)
+
+
+def test_the_midcourse_oem_route_picks_a_point_and_the_index_lists_it(tmp_path):
+    from fastapi.testclient import TestClient
+
+    from app import jobs
+    from app.db import get_database
+    from app.main import create_app
+    from app.migrate import upgrade
+    from app.settings import Settings
+
+    url = f"sqlite:///{tmp_path / 'r.db'}"
+    upgrade(url)
+    db = get_database(url)
+    kind, params, outcome = solve_preset("upper-stage-two-corrections")
+    job, _ = jobs.create_job(db, kind=kind, params=params, label="mc", preset=None)
+    claim = jobs.claim(db, job.id, job.attempts, worker="t", max_attempts=3, stale_after_s=60)
+    assert jobs.finish(db, job.id, claim.attempt, status="succeeded", result=outcome.result, error=None, message="ok")
+    db.dispose()
+    front = outcome.result["pareto_front"]
+    with TestClient(create_app(Settings(database_url=url, broker_url="redis://127.0.0.1:1/0"))) as client:
+        assert client.get(f"/v1/jobs/{job.id}/plots").json()["oem"] == f"/v1/jobs/{job.id}/result.oem"
+        default = client.get(f"/v1/jobs/{job.id}/result.oem")
+        assert default.status_code == 200 and default.headers["content-type"].startswith("application/ccsds-oem")
+        best = int(np.argmin([p["delta_v_mps"] for p in front]))
+        assert f"OBJECT_NAME = mc point {best}\n" in default.text
+        last = client.get(f"/v1/jobs/{job.id}/result.oem", params={"point": len(front) - 1})
+        assert last.status_code == 200 and f"mc point {len(front) - 1}" in last.text and last.text != default.text
+        assert client.get(f"/v1/jobs/{job.id}/result.oem", params={"point": len(front)}).status_code == 404
+        nominal = client.get(f"/v1/jobs/{job.id}/result.oem", params={"trajectory": "nominal"})
+        assert nominal.status_code == 200 and "OBJECT_NAME = mc nominal" in nominal.text
+        message = _read_oem(last.text, tmp_path)
+        point = front[-1]
+        coasts = len({t for t in point["times_s"] if 0 < t < params["tf_s"]}) + 1
+        assert len(message.segments) == coasts
+        again = client.get(f"/v1/jobs/{job.id}/result.oem", params={"point": len(front) - 1},
+                           headers={"If-None-Match": last.headers["etag"]})
+        assert again.status_code == 304
