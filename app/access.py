@@ -51,10 +51,15 @@ def _unauthorized(detail: str, *, error: str | None = None) -> HTTPException:
     return HTTPException(status_code=401, detail=detail, headers={"WWW-Authenticate": challenge})
 
 
-def _principal(request: Request,
-               credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(bearer_scheme)]) -> Principal:
+async def _principal(request: Request,
+                     credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(bearer_scheme)]) -> Principal:
+    # async, so auth off costs no thread-pool hop; the key lookup (database) runs in the pool
     if request.app.state.settings.auth == "off":
         return LOCAL
+    return await run_in_threadpool(_key_principal, request, credentials)
+
+
+def _key_principal(request: Request, credentials: HTTPAuthorizationCredentials | None) -> Principal:
     if credentials is None:
         raise _unauthorized("an API key is required: Authorization: Bearer KEY")
     key = auth.authenticate(request.app.state.db, credentials.credentials)
@@ -69,7 +74,7 @@ PrincipalDep = Annotated[Principal, Depends(_principal)]
 async def principal_before_body(request: Request) -> Principal:
     """The same check for a route that wants to refuse a caller before reading a large body
     (FastAPI reads and parses the body before it runs dependencies)."""
-    return await run_in_threadpool(_principal, request, await bearer_scheme(request))
+    return await _principal(request, await bearer_scheme(request))
 
 
 _JOB_ID = re.compile(r"[0-9a-f]{32}")  # app.models.new_id: uuid4().hex

@@ -118,9 +118,12 @@ def cmd_recover(args: argparse.Namespace) -> int:
 def cmd_api(args: argparse.Namespace) -> int:
     import uvicorn
 
-    from app.main import create_app
+    from app.settings import get_settings
 
-    uvicorn.run(create_app(), host=args.host, port=args.port)
+    settings = get_settings()
+    # uvloop and httptools (uvicorn[standard]) named, not left to "auto"; TRAJLAB_API_WORKERS processes
+    uvicorn.run("app.main:create_app", factory=True, host=args.host, port=args.port, loop="uvloop",
+                http="httptools", workers=settings.api_workers, access_log=settings.access_log)
     return 0
 
 

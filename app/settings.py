@@ -35,6 +35,9 @@ class Settings(BaseSettings):
     )
     data_dir: Path = Field(default=DEFAULT_DATA_DIR, description="Embedded mode: SQLite file, Redis socket, logs")
     worker_concurrency: int = Field(default=1, ge=1, description="Solver processes per worker")
+    api_workers: int = Field(default=1, ge=1, description="`trajlab api` processes (uvicorn workers) on one port")
+    access_log: bool = Field(default=False, description="`trajlab api` writes one log line per request (uvicorn's "
+                                                         "access log; it costs about a tenth of a request's CPU)")
 
     # Per-kind Celery time limits (s). The soft limit raises inside the task so the
     # job fails with code time_limit and a message; the hard limit kills the child.

@@ -15,12 +15,18 @@ from app.deps import CeleryDep, DatabaseDep, SettingsDep
 from app.kinds import KINDS, PRESETS
 from app.params import resolve_params
 from app.results.compact import compact
-from app.results.models import JobResult, result_json
 from app.schemas import ErrorBody, JobList, JobOut, JobStatus, JobSubmission, NotSucceededBody, ValidationErrorBody
 from app.broker import publish_job
 
 router = APIRouter(prefix="/v1/jobs", tags=["jobs"])
 log = logging.getLogger("trajlab.api")
+
+
+def _job_response(body: bytes, *, status_code: int = 200, headers: dict | None = None) -> Response:
+    """A job document already serialized (app.jobs.job_json): ``response_model`` stays for the OpenAPI
+    document, and FastAPI neither validates nor serializes the returned dict again (for a ``def`` route
+    that is one more thread-pool hop per request)."""
+    return Response(body, status_code=status_code, headers=headers, media_type="application/json")
 
 
 @router.post("", status_code=202, response_model=JobOut,
@@ -39,7 +45,7 @@ def submit_job(
         "override": {"summary": "A preset with overrides",
                      "value": {"kind": "reentry", "preset": "betts-max-crossrange", "params": {"grid": {"intervals": 50}}}},
     })],
-    response: Response, db: DatabaseDep, settings: SettingsDep, celery: CeleryDep, principal: PrincipalDep,
+    db: DatabaseDep, settings: SettingsDep, celery: CeleryDep, principal: PrincipalDep,
     idempotency_key: Annotated[str | None, Header(max_length=200, description="Repeat a submission safely: the same key and body return the same job")] = None,
 ):
     spec = KINDS[submission.kind]
@@ -76,8 +82,7 @@ def submit_job(
             log.warning("job %s: broker unreachable, stored unpublished", job.id, exc_info=True)
             jobs.mark_unpublished(db, job.id)
             job = jobs.get_job(db, job.id)
-    response.headers["Location"] = f"/v1/jobs/{job.id}"
-    return jobs.job_to_dict(job)
+    return _job_response(jobs.job_json(job), status_code=202, headers={"Location": f"/v1/jobs/{job.id}"})
 
 
 @router.get("", response_model=JobList)
@@ -91,18 +96,16 @@ def list_jobs(
 ):
     if kind is not None and kind not in KINDS:
         raise HTTPException(status_code=422, detail=f"kind must be one of {sorted(KINDS)}")
-    items, total = jobs.list_jobs(db, kind=kind, status=status, limit=limit, offset=offset,
-                                  owner=principal.owner_filter)
-    return {"items": [jobs.job_to_dict(j) for j in items], "total": total}
+    return _job_response(jobs.list_jobs_json(db, kind=kind, status=status, limit=limit, offset=offset,
+                                             owner=principal.owner_filter))
 
 
 @router.get("/{job_id}", response_model=JobOut, responses={404: {"model": ErrorBody, "description": "Unknown job"}})
 def get_job(job_id: str, db: DatabaseDep, principal: PrincipalDep):
-    return jobs.job_to_dict(visible_job(db, job_id, principal))
+    return _job_response(jobs.job_json(visible_job(db, job_id, principal)))
 
 
-@router.get("/{job_id}/result", response_model=JobResult, responses={
-    200: {"description": "The result: one of the kinds' result models (fields and units in each schema)"},
+@router.get("/{job_id}/result", responses={
     404: {"model": ErrorBody, "description": "Unknown job"},
     409: {"model": NotSucceededBody, "description": "Not succeeded (yet): the body gives the status, the error and any stored diagnostic "
                          "or partial result (e.g. the Pareto front of a cancelled run)"}})
@@ -122,9 +125,7 @@ def get_result(job_id: str, db: DatabaseDep, principal: PrincipalDep,
     headers = {"ETag": etag, "Cache-Control": "private, max-age=86400"}
     if if_none_match and etag in [t.strip() for t in if_none_match.split(",")]:
         return Response(status_code=304, headers=headers)
-    # validated by the kind's model and written by pydantic-core (app.results.models.result_json)
-    return Response(result_json(job.kind, compact(job.kind, result, set(include))), media_type="application/json",
-                    headers=headers)
+    return JSONResponse(compact(job.kind, result, set(include)), headers=headers)
 
 
 @router.post("/{job_id}/cancel", status_code=202, response_model=JobOut, responses={404: {"model": ErrorBody, "description": "Unknown job"}})
@@ -133,4 +134,4 @@ def cancel_job(job_id: str, db: DatabaseDep, principal: PrincipalDep):
     job = jobs.request_cancel(db, job_id)
     if job is None:
         raise not_found(job_id)
-    return jobs.job_to_dict(job)
+    return _job_response(jobs.job_json(job), status_code=202)
