@@ -31,9 +31,11 @@ from typing import Callable
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from solvers.astro.earth import AE_EARTH
 from solvers.astro.kepler import propagate
-from solvers.astro.lambert import lambert
 from solvers.common import Outcome, ProgressFn, SolveStatus, StopFn, never_stop, noop_progress
+from solvers.intercept_branches import Branch, branches, delta_v
+from solvers.intercept_porkchop import Porkchop, PorkchopSettings, porkchop_map
 from solvers.intercept_scenario import InterceptScenario
 from solvers.intercept_thrust import (
     FiniteThrustProblem, FiniteThrustSolution, ImpulsiveGuess, MeshOptions, solve_finite_thrust,
@@ -50,18 +52,14 @@ class ScanSettings:
     max_revolutions: int = 0         # also search 1..max_revolutions full revolutions
     retrograde: bool = True          # also search retrograde transfers
     refine: bool = True              # bounded minimization around the best grid point
+    # Lambert arcs that dip below this radius pass through the planet: left out of the scan,
+    # the refinement and the porkchop (and counted) unless exclude_through_planet is False
+    exclude_through_planet: bool = True
+    body_radius_m: float = AE_EARTH
 
-
-@dataclass(frozen=True)
-class PorkchopSettings:
-    """A 2-D map of delta-v over maneuver time x interception time."""
-
-    t_man_points: int = 60
-    t_intercept_points: int = 60
-    t_man_min_s: float = 0.0
-    t_man_max_s: float | None = None          # None: the largest interception time
-    t_intercept_min_s: float | None = None    # None: t1 / 2
-    t_intercept_max_s: float | None = None    # None: 1.5 t1
+    @property
+    def excluded_below_m(self) -> float | None:
+        return self.body_radius_m if self.exclude_through_planet else None
 
 
 @dataclass(frozen=True)
@@ -73,31 +71,6 @@ class InterceptProblem:
     scan: ScanSettings = field(default_factory=ScanSettings)
     mesh: MeshOptions = field(default_factory=MeshOptions)   # finite-thrust collocation
     porkchop: PorkchopSettings | None = None
-
-
-@dataclass(frozen=True)
-class Branch:
-    """One Lambert solution family."""
-
-    prograde: bool
-    revolutions: int
-    low_path: bool = True
-
-    def label(self) -> str:
-        way = "prograde" if self.prograde else "retrograde"
-        if self.revolutions == 0:
-            return f"{way}, 0 revolutions"
-        return f"{way}, {self.revolutions} revolutions, {'low' if self.low_path else 'high'} path"
-
-
-@dataclass
-class Porkchop:
-    t_man_s: np.ndarray          # (P,)
-    t_intercept_s: np.ndarray    # (Q,)
-    delta_v_mps: np.ndarray      # (P, Q), NaN where t_man >= t_intercept or no solution
-    best_t_man_s: float
-    best_t_intercept_s: float
-    best_delta_v_mps: float
 
 
 @dataclass
@@ -119,6 +92,10 @@ class ImpulsiveSolution:
     relative_velocity_at_intercept_mps: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
     miss_distance_m: float = float("nan")    # post-burn state re-propagated to t1 vs target
     porkchop: Porkchop | None = None
+    # Lambert solutions (maneuver time x branch) left out because their arc passes through the
+    # planet, and maneuver times left with no admissible branch because of that
+    excluded_through_planet: int = 0
+    points_only_through_planet: int = 0
 
 
 @dataclass
@@ -131,20 +108,7 @@ class InterceptSolution:
 
 
 def _branches(scan: ScanSettings) -> list[Branch]:
-    out = []
-    for prograde in ((True, False) if scan.retrograde else (True,)):
-        out.append(Branch(prograde, 0))
-        for m in range(1, scan.max_revolutions + 1):
-            out.append(Branch(prograde, m, True))
-            out.append(Branch(prograde, m, False))
-    return out
-
-
-def _delta_v(mu, r, v, r_target, tof, branch: Branch):
-    """Delta-v vectors (N, 3) from states (r, v) to r_target in tof; NaN where none."""
-    sol = lambert(mu, r, r_target, tof, revolutions=branch.revolutions,
-                  prograde=branch.prograde, low_path=branch.low_path)
-    return sol.v1 - v, sol
+    return branches(max_revolutions=scan.max_revolutions, retrograde=scan.retrograde)
 
 
 def solve_impulsive(problem: InterceptProblem, *, on_progress: ProgressFn | None = None,
@@ -161,41 +125,48 @@ def solve_impulsive(problem: InterceptProblem, *, on_progress: ProgressFn | None
 
     t_end = t1 if scan.t_end_s is None else min(scan.t_end_s, t1)
     grid = np.arange(scan.t_start_s, t_end, scan.step_s)
-    branches = _branches(scan)
+    searched = _branches(scan)
     n = grid.size
-    dv_all = np.full((len(branches), n), np.nan)
+    dv_all = np.full((len(searched), n), np.nan)
+    through = np.zeros((len(searched), n), bool)
     empty = ImpulsiveSolution(
         status=SolveStatus(Outcome.FAILED), t_man_s=grid, delta_v_mps=np.full(n, np.nan),
-        branch_index=np.full(n, -1), branches=branches, tf_s=t1)
+        branch_index=np.full(n, -1), branches=searched, tf_s=t1)
     if n == 0:
         empty.status = SolveStatus(Outcome.FAILED, solver_status="empty_window",
                                    message="the maneuver window [t_start, min(t_end, t1)) is empty")
         return empty
 
     r_m, v_m = propagate(mu, r0i, v0i, grid)
-    for k, branch in enumerate(branches):
+    for k, branch in enumerate(searched):
         if stop():
             empty.status = SolveStatus(Outcome.CANCELLED, solver_status="cancelled",
                                        message="cancelled during the Lambert scan")
             return empty
-        dv, _ = _delta_v(mu, r_m, v_m, r_t1, t1 - grid, branch)
-        dv_all[k] = np.linalg.norm(dv, axis=1)
-        progress(0.8 * (k + 1) / len(branches), f"Lambert scan: {branch.label()} ({n} maneuver times)")
+        bdv = delta_v(mu, r_m, v_m, r_t1, t1 - grid, branch, body_radius_m=scan.excluded_below_m)
+        dv_all[k] = np.linalg.norm(bdv.delta_v_mps, axis=1)
+        through[k] = bdv.through_planet
+        progress(0.8 * (k + 1) / len(searched), f"Lambert scan: {branch.label()} ({n} maneuver times)")
 
     finite = np.isfinite(dv_all)
     any_ok = finite.any(axis=0)
     branch_index = np.where(any_ok, np.argmin(np.where(finite, dv_all, np.inf), axis=0), -1)
     curve = np.where(any_ok, np.min(np.where(finite, dv_all, np.inf), axis=0), np.nan)
     sol = ImpulsiveSolution(status=SolveStatus(Outcome.FAILED), t_man_s=grid, delta_v_mps=curve,
-                            branch_index=branch_index, branches=branches, tf_s=t1)
+                            branch_index=branch_index, branches=searched, tf_s=t1,
+                            excluded_through_planet=int(through.sum()),
+                            points_only_through_planet=int(np.count_nonzero(~any_ok & through.any(axis=0))))
     if not any_ok.any():
-        sol.status = SolveStatus(Outcome.INFEASIBLE, solver_status="no_lambert_solution",
-                                 message="no Lambert branch reaches the target from any maneuver time",
+        msg = "no Lambert branch reaches the target from any maneuver time"
+        if sol.excluded_through_planet:
+            msg += (f" without passing through the planet ({sol.excluded_through_planet} solutions below "
+                    f"{scan.body_radius_m:.0f} m left out; scan.exclude_through_planet: false keeps them)")
+        sol.status = SolveStatus(Outcome.INFEASIBLE, solver_status="no_lambert_solution", message=msg,
                                  solve_time_s=time.perf_counter() - t_start)
         return sol
 
     kbest = int(np.nanargmin(curve))
-    branch = branches[int(branch_index[kbest])]
+    branch = searched[int(branch_index[kbest])]
     t_best, dv_best = float(grid[kbest]), float(curve[kbest])
     iterations = 0
     if scan.refine:
@@ -205,8 +176,8 @@ def solve_impulsive(problem: InterceptProblem, *, on_progress: ProgressFn | None
 
         def objective(tm: float) -> float:
             r, v = propagate(mu, r0i, v0i, tm)
-            dv, _ = _delta_v(mu, r, v, r_t1, t1 - tm, branch)
-            val = float(np.linalg.norm(dv))
+            val = float(np.linalg.norm(delta_v(mu, r, v, r_t1, t1 - tm, branch,
+                                               body_radius_m=scan.excluded_below_m).delta_v_mps))
             return val if np.isfinite(val) else 1e30
 
         if hi > lo:
@@ -218,7 +189,8 @@ def solve_impulsive(problem: InterceptProblem, *, on_progress: ProgressFn | None
     progress(0.9, "refined the best maneuver time")
 
     r_b, v_b = propagate(mu, r0i, v0i, t_best)
-    dvec, lam = _delta_v(mu, r_b, v_b, r_t1, t1 - t_best, branch)
+    best = delta_v(mu, r_b, v_b, r_t1, t1 - t_best, branch, body_radius_m=None)
+    dvec = best.delta_v_mps
     v_after = v_b + dvec
     # independent check: coast the post-burn state to t1 and compare with the target
     r_chk, _ = propagate(mu, r_b, v_after, t1 - t_best)
@@ -230,15 +202,18 @@ def solve_impulsive(problem: InterceptProblem, *, on_progress: ProgressFn | None
     sol.burn_position_m = r_b
     sol.velocity_before_mps = v_b
     sol.velocity_after_mps = v_after
-    sol.relative_velocity_at_intercept_mps = lam.v2 - v_t1
+    sol.relative_velocity_at_intercept_mps = best.v_arrival_mps - v_t1
     sol.miss_distance_m = float(np.linalg.norm(r_chk - r_t1))
 
     if problem.porkchop is not None:
-        sol.porkchop = _porkchop(problem, r0i, v0i, r0t, v0t, branches, progress)
+        sol.porkchop = porkchop_map(problem.porkchop, mu=mu, t1=t1, interceptor=(r0i, v0i), target=(r0t, v0t),
+                                    branches=searched, body_radius_m=scan.excluded_below_m)
+        progress(0.95, f"porkchop {problem.porkchop.t_man_points} x {problem.porkchop.t_intercept_points}")
 
     elapsed = time.perf_counter() - t_start
     details = {"branch": branch.label(), "grid_points": int(n),
-               "refine_evaluations": iterations, "miss_distance_m": sol.miss_distance_m}
+               "refine_evaluations": iterations, "miss_distance_m": sol.miss_distance_m,
+               "excluded_through_planet": sol.excluded_through_planet}
     if sol.fuel_kg > sn.propellant_kg:
         sol.status = SolveStatus(
             Outcome.INFEASIBLE, solver_status="insufficient_propellant",
@@ -251,38 +226,6 @@ def solve_impulsive(problem: InterceptProblem, *, on_progress: ProgressFn | None
                                  iterations=iterations, solve_time_s=elapsed, details=details)
     progress(1.0, "impulsive scan done")
     return sol
-
-
-def _porkchop(problem: InterceptProblem, r0i, v0i, r0t, v0t, branches, progress) -> Porkchop:
-    """Delta-v over (maneuver time, interception time), min over branches."""
-    pc = problem.porkchop
-    mu, t1 = problem.scenario.mu_m3_s2, problem.scenario.tf_s
-    ti_lo = 0.5 * t1 if pc.t_intercept_min_s is None else pc.t_intercept_min_s
-    ti_hi = 1.5 * t1 if pc.t_intercept_max_s is None else pc.t_intercept_max_s
-    tm_hi = ti_hi if pc.t_man_max_s is None else pc.t_man_max_s
-    t_man = np.linspace(pc.t_man_min_s, tm_hi, pc.t_man_points, endpoint=pc.t_man_max_s is not None)
-    t_int = np.linspace(ti_lo, ti_hi, pc.t_intercept_points)
-    r_m, v_m = propagate(mu, r0i, v0i, t_man)
-    r_i, _ = propagate(mu, r0t, v0t, t_int)
-    tm_g, ti_g = np.meshgrid(t_man, t_int, indexing="ij")
-    ok = (ti_g - tm_g).ravel() > 0.0
-    rm = np.repeat(r_m, t_int.size, axis=0)[ok]
-    vm = np.repeat(v_m, t_int.size, axis=0)[ok]
-    ri = np.tile(r_i, (t_man.size, 1))[ok]
-    tof = (ti_g - tm_g).ravel()[ok]
-    best = np.full(ok.size, np.inf)
-    sub = np.full(ok.sum(), np.inf)
-    for branch in branches:
-        dv, _ = _delta_v(mu, rm, vm, ri, tof, branch)
-        d = np.linalg.norm(dv, axis=1)
-        sub = np.where(np.isfinite(d) & (d < sub), d, sub)
-    best[ok] = sub
-    grid = np.where(np.isfinite(best), best, np.nan).reshape(tm_g.shape)
-    progress(0.95, f"porkchop {t_man.size} x {t_int.size}")
-    if np.isfinite(grid).any():
-        i, j = np.unravel_index(np.nanargmin(grid), grid.shape)
-        return Porkchop(t_man, t_int, grid, float(t_man[i]), float(t_int[j]), float(grid[i, j]))
-    return Porkchop(t_man, t_int, grid, float("nan"), float("nan"), float("nan"))
 
 
 def _impulsive_start(problem: InterceptProblem, earlier: ImpulsiveSolution | None, progress, stop):
@@ -303,7 +246,8 @@ def _impulsive_start(problem: InterceptProblem, earlier: ImpulsiveSolution | Non
         pc_problem = replace(base, porkchop=PorkchopSettings(
             t_man_points=240, t_intercept_points=int(np.clip((hi - lo) / 60.0, 40, 400)) + 1, t_man_min_s=0.0,
             t_man_max_s=hi, t_intercept_min_s=lo, t_intercept_max_s=hi))
-        pc = _porkchop(pc_problem, r0i, v0i, r0t, v0t, _branches(base.scan), progress)
+        pc = porkchop_map(pc_problem.porkchop, mu=sn.mu_m3_s2, t1=tf, interceptor=(r0i, v0i), target=(r0t, v0t),
+                          branches=_branches(base.scan), body_radius_m=base.scan.excluded_below_m)
         if np.isfinite(pc.best_t_intercept_s):
             tf = pc.best_t_intercept_s
         earlier = None

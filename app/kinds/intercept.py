@@ -73,7 +73,9 @@ def to_problem(params: InterceptParams):
         methods=tuple(params.methods),
         scan=ScanSettings(step_s=params.scan.step_s, t_start_s=params.scan.t_start_s,
                           t_end_s=params.scan.t_end_s, max_revolutions=params.scan.max_revolutions,
-                          retrograde=params.scan.retrograde, refine=params.scan.refine),
+                          retrograde=params.scan.retrograde, refine=params.scan.refine,
+                          exclude_through_planet=params.scan.exclude_through_planet,
+                          body_radius_m=params.scan.body_radius_m),
         mesh=MeshOptions(nodes=ft.nodes_per_segment, coast_segment_s=ft.coast_segment_s,
                          burn_segment_s=ft.burn_segment_s, miss_tolerance_m=ft.miss_tolerance_m,
                          max_refinements=ft.max_refinements, max_iterations=ft.max_iterations),
@@ -101,6 +103,7 @@ def trajectory_guess(stored: dict):
 
 def run(params: InterceptParams, ctx: JobContext) -> RunOutcome:
     from solvers import intercept as solver
+    from solvers.intercept_cases import is_paper_003
 
     problem = to_problem(params)
     notes = []
@@ -112,13 +115,21 @@ def run(params: InterceptParams, ctx: JobContext) -> RunOutcome:
         notes.append(f"finite thrust warm-started from job {job}")
     sol = solver.solve(problem, initial_guess=guess, on_progress=ctx.progress, should_stop=ctx.should_stop)
     result: dict = {"impulsive": None, "finite_thrust": None, "notes": notes}
+    # the paper's figures are quoted only beside an answer to the paper's own scenario
+    paper = is_paper_003(problem.scenario)
     if sol.impulsive is not None:
         result["impulsive"] = impulsive_result(sol.impulsive, params)
-        notes.append(PAPER_NOTE)
+        if paper:
+            notes.append(PAPER_NOTE)
         notes.append(f"fuel uses g0 = {params.g0_mps2} m/s^2 and the initial mass {params.interceptor.mass_kg} kg")
+        if sol.impulsive.excluded_through_planet:
+            notes.append(f"{sol.impulsive.excluded_through_planet} Lambert solutions of the scan pass through the "
+                         f"planet (below {params.scan.body_radius_m:.0f} m) and were left out "
+                         "(scan.exclude_through_planet)")
     if sol.finite_thrust is not None:
         result["finite_thrust"] = finite_result(sol.finite_thrust, params)
-        notes.append(FINITE_NOTE)
+        if paper and not params.free_final_time:
+            notes.append(FINITE_NOTE)
         if params.free_final_time:
             notes.append("free final time: the fuel is multimodal in tf (the geometry repeats with the "
                          "target's period), so the answer is the best local optimum near the best single "

@@ -10,7 +10,7 @@ from typing import Literal
 from pydantic import Field, field_validator, model_validator
 
 from app.kinds.base import StrictModel
-from solvers.astro.earth import MU_EARTH
+from solvers.astro.earth import AE_EARTH, MU_EARTH
 from solvers.constants import G0_MPS2
 
 MAX_SCAN_POINTS = 2_000_000
@@ -62,6 +62,12 @@ class InterceptScan(StrictModel):
     retrograde: bool = Field(True, description="Also search retrograde transfers", examples=[True])
     refine: bool = Field(True, description="Refine the best grid point with a bounded 1-D minimization",
                          examples=[True])
+    exclude_through_planet: bool = Field(True, description="Leave out Lambert arcs that pass below "
+                                         "body_radius_m (through the planet) from the scan, its refinement and "
+                                         "the porkchop; the result counts them", examples=[True])
+    body_radius_m: float = Field(AE_EARTH, gt=0, description="Radius of the central body for "
+                                 "exclude_through_planet (default: the Earth's equatorial radius, WGS-84)",
+                                 examples=[AE_EARTH])
 
 
 class InterceptPorkchop(StrictModel):

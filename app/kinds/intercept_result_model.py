@@ -39,6 +39,16 @@ class InterceptResultImpulse(ResultModel):
         description="Interceptor minus target velocity at interception, inertial (m/s)")
 
 
+class InterceptResultThroughPlanet(ResultModel):
+    """Lambert arcs whose smallest radius is below the body's: left out of the scan by default."""
+
+    excluded: bool = Field(description="Whether such arcs were left out (scan.exclude_through_planet)")
+    body_radius_m: Num = Field(description="The body radius they were checked against (m)")
+    excluded_solutions: int = Field(description="Converged Lambert solutions (maneuver time x branch) left out")
+    points_only_through_planet: int = Field(
+        description="Maneuver times whose every converged branch passes through the planet (no transfer left)")
+
+
 class InterceptResultPorkchopBest(ResultModel):
     """The porkchop map's minimum."""
 
@@ -83,6 +93,8 @@ class InterceptResultImpulsive(ResultModel):
     best: InterceptResultImpulse = Field(description="The best impulse")
     intercept_time_s: Num = Field(description="Interception time (s)")
     branches_searched: list[str] = Field(description="Lambert branches searched")
+    through_planet: InterceptResultThroughPlanet | None = Field(
+        None, description="Lambert arcs through the planet left out of the scan (scan.exclude_through_planet)")
     solver: InterceptResultSolver = Field(description="The scan's account")
     verification: InterceptResultImpulsiveVerification = Field(description="Independent propagation")
     porkchop: InterceptResultPorkchop | None = Field(None, description="With porkchop.enabled: the map")

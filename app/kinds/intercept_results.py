@@ -42,6 +42,10 @@ def impulsive_result(sol, params: InterceptParams) -> dict:
         },
         "intercept_time_s": json_float(sol.tf_s),
         "branches_searched": [br.label() for br in sol.branches],
+        "through_planet": {
+            "excluded": params.scan.exclude_through_planet, "body_radius_m": params.scan.body_radius_m,
+            "excluded_solutions": sol.excluded_through_planet,
+            "points_only_through_planet": sol.points_only_through_planet},
         "solver": _solver_block(s),
         "verification": {"miss_distance_m": json_float(sol.miss_distance_m),
                          "method": "post-burn state propagated to the interception time (universal variables)"},

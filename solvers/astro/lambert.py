@@ -259,30 +259,51 @@ def lambert(mu: float, r1, r2, tof, *, revolutions: int = 0, prograde: bool = Tr
     return LambertSolution(v1=v1, v2=v2, converged=conv, iterations=iters)
 
 
+
+@njit(cache=True, error_model="numpy")
+def _arc_min_radius(mu, r1, v1, r2, v2, revolutions, out):
+    """The loop of :func:`arc_min_radius` (a compiled loop of its own: numpy's temporaries
+    cost as much as the Lambert solve on a 1000 x 1000 porkchop)."""
+    for k in range(r1.shape[0]):
+        x1, y1, z1 = r1[k, 0], r1[k, 1], r1[k, 2]
+        u0, u1, u2 = v1[k, 0], v1[k, 1], v1[k, 2]
+        x2, y2, z2 = r2[k, 0], r2[k, 1], r2[k, 2]
+        r1n = math.sqrt(x1 * x1 + y1 * y1 + z1 * z1)
+        r2n = math.sqrt(x2 * x2 + y2 * y2 + z2 * z2)
+        h0, h1, h2 = y1 * u2 - z1 * u1, z1 * u0 - x1 * u2, x1 * u1 - y1 * u0
+        p = (h0 * h0 + h1 * h1 + h2 * h2) / mu                       # semi-latus rectum
+        energy = 0.5 * (u0 * u0 + u1 * u1 + u2 * u2) - mu / r1n
+        ecc = math.sqrt(max(0.0, 1.0 + 2.0 * energy * p / mu))
+        rp = p / (1.0 + ecc)
+        q = math.sqrt(p / mu)
+        # e sin(nu) = sqrt(p/mu) (r . v) / r,  e cos(nu) = p / r - 1.  Is nu2 < nu1 with both in
+        # [0, 2 pi)?  By half-planes and a cross product, not two atan2 (half the time here).
+        s1, c1 = q * (x1 * u0 + y1 * u1 + z1 * u2) / r1n, p / r1n - 1.0
+        s2, c2 = q * (x2 * v2[k, 0] + y2 * v2[k, 1] + z2 * v2[k, 2]) / r2n, p / r2n - 1.0
+        half1 = 0 if (s1 > 0.0 or (s1 == 0.0 and c1 >= 0.0)) else 1      # 0: nu in [0, pi)
+        half2 = 0 if (s2 > 0.0 or (s2 == 0.0 and c2 >= 0.0)) else 1
+        wraps = half2 < half1 or (half2 == half1 and s1 * c2 - c1 * s2 > 0.0)
+        val = rp if (revolutions > 0 or wraps) else min(r1n, r2n)
+        out[k] = val if math.isfinite(rp) and math.isfinite(u0) and math.isfinite(u1) and math.isfinite(u2) \
+            else math.nan
+
+
 def arc_min_radius(mu: float, r1, v1, r2, v2, *, revolutions: int = 0) -> np.ndarray:
     """Smallest distance from the centre along the arc flown from (r1, v1) to (r2, v2): the
     transfer orbit's periapsis radius if the arc passes through periapsis, else min(|r1|, |r2|).
 
-    Computed after the solve, vectorized (the compiled loop stays as fast).  With the true
-    anomaly taken in [0, 2 pi) in the direction of motion, a zero-revolution arc passes
-    periapsis exactly when the anomaly wraps around, ``nu2 < nu1``; the rule holds for
-    hyperbolas too, whose anomalies lie in (-pi, pi).  An arc of one or more full
-    revolutions passes periapsis.  NaN where the velocities are NaN (no solution).
+    Computed after the solve (the Lambert loop stays as fast), in a compiled loop of its own.
+    With the true anomaly taken in [0, 2 pi) in the direction of motion, a zero-revolution
+    arc passes periapsis exactly when the anomaly wraps around, ``nu2 < nu1``; the rule holds
+    for hyperbolas too, whose anomalies lie in (-pi, pi).  An arc of one or more full
+    revolutions passes periapsis.  NaN where the velocities are NaN (no solution).  Shapes
+    as :func:`lambert`: (3,) vectors give a 0-d array.
     """
-    r1, v1, r2, v2 = (np.asarray(a, dtype=float) for a in (r1, v1, r2, v2))
-    r1n = np.linalg.norm(r1, axis=-1)
-    r2n = np.linalg.norm(r2, axis=-1)
-    h = np.cross(r1, v1)
-    p = np.sum(h * h, axis=-1) / mu                       # semi-latus rectum
-    energy = 0.5 * np.sum(v1 * v1, axis=-1) - mu / r1n
-    ecc = np.sqrt(np.maximum(0.0, 1.0 + 2.0 * energy * p / mu))
-    rp = p / (1.0 + ecc)
-    k = np.sqrt(p / mu)
-
-    def anomaly(r, v, rn):
-        # e sin(nu) = sqrt(p/mu) (r . v) / r,  e cos(nu) = p / r - 1
-        return np.mod(np.arctan2(k * np.sum(r * v, axis=-1) / rn, p / rn - 1.0), 2.0 * np.pi)
-
-    passes = (anomaly(r2, v2, r2n) < anomaly(r1, v1, r1n)) | (int(revolutions) > 0)
-    out = np.where(passes, rp, np.minimum(r1n, r2n))
-    return np.where(np.isfinite(rp) & np.all(np.isfinite(v1), axis=-1), out, np.nan)
+    v1a, v2a = np.asarray(v1, dtype=float), np.asarray(v2, dtype=float)
+    single = v1a.ndim == 1 and np.ndim(r1) == 1 and np.ndim(r2) == 1
+    n = max(np.atleast_2d(a).shape[0] for a in (r1, v1a, r2, v2a))
+    r1c, v1c, r2c, v2c = (np.ascontiguousarray(np.broadcast_to(np.atleast_2d(np.asarray(a, dtype=float)), (n, 3)))
+                          for a in (r1, v1a, r2, v2a))
+    out = np.empty(n)
+    _arc_min_radius(float(mu), r1c, v1c, r2c, v2c, int(revolutions), out)
+    return out[0].copy() if single else out

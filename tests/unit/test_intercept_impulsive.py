@@ -214,3 +214,71 @@ def test_the_api_defaults_are_the_paper_case():
         for el in ("a", "e", "i", "raan", "argp", "nu"):
             assert math.isclose(getattr(getattr(sn, orbit), el), getattr(getattr(PAPER_003, orbit), el),
                                 rel_tol=1e-15, abs_tol=1e-15), (orbit, el)
+
+
+def test_scan_leaves_out_transfers_through_the_planet():
+    # Paper 003's geometry intercepted at tf = 6000 s: the cheapest single impulse, 3883.8 m/s
+    # (366 kg), flies a Lambert arc that dips far below the Earth's surface; the cheapest
+    # admissible one costs 6274 m/s, more than the 400 kg on board (issue 15, item 4).
+    from solvers.astro.lambert import arc_min_radius, lambert
+
+    sc = replace(PAPER_003, tf_s=6000.0)
+    kept = solve_impulsive(InterceptProblem(scenario=sc, scan=ScanSettings(step_s=5.0, exclude_through_planet=False)))
+    excl = solve_impulsive(InterceptProblem(scenario=sc, scan=ScanSettings(step_s=5.0)))
+    assert kept.status.outcome is Outcome.OPTIMAL and kept.excluded_through_planet == 0
+    assert kept.best_delta_v_mps == pytest.approx(3883.77, abs=0.05)
+    # the kept answer's arc really passes through the Earth
+    r_t1, _ = propagate(sc.mu_m3_s2, *sc.initial_states()[2:], sc.tf_s)
+    lam = lambert(sc.mu_m3_s2, kept.burn_position_m, r_t1, sc.tf_s - kept.best_t_man_s,
+                  prograde=kept.best_branch.prograde)
+    assert arc_min_radius(sc.mu_m3_s2, kept.burn_position_m, lam.v1, r_t1, lam.v2) < 3000e3
+    assert excl.best_delta_v_mps == pytest.approx(6274.12, abs=0.05)
+    assert excl.status.outcome is Outcome.INFEASIBLE and excl.status.solver_status == "insufficient_propellant"
+    assert excl.excluded_through_planet == 1300 and excl.points_only_through_planet == 100
+    assert excl.status.details["excluded_through_planet"] == 1300
+    # the admissible answer's own arc stays above the surface
+    lam = lambert(sc.mu_m3_s2, excl.burn_position_m, r_t1, sc.tf_s - excl.best_t_man_s,
+                  prograde=excl.best_branch.prograde)
+    assert arc_min_radius(sc.mu_m3_s2, excl.burn_position_m, lam.v1, r_t1, lam.v2) >= 6378137.0
+    # so does every point of the porkchop, which then is never below the scan's admissible minimum
+    pc = solve_impulsive(InterceptProblem(scenario=sc, scan=ScanSettings(step_s=5.0), porkchop=PorkchopSettings(
+        t_man_points=40, t_intercept_points=3, t_intercept_min_s=5999.0, t_intercept_max_s=6001.0,
+        t_man_max_s=5990.0))).porkchop
+    assert np.nanmin(pc.delta_v_mps[:, 1]) >= excl.best_delta_v_mps - 1e-6
+
+
+def test_through_planet_block_in_the_result():
+    params = InterceptParams.model_validate({"methods": ["impulsive"], "intercept_time_s": 6000.0,
+                                             "scan": {"step_s": 5.0}})
+    out = run(params, Ctx())
+    block = out.result["impulsive"]["through_planet"]
+    assert block == {"excluded": True, "body_radius_m": 6378137.0, "excluded_solutions": 1300,
+                     "points_only_through_planet": 100}
+    assert out.status == "failed" and "propellant" in out.result["impulsive"]["message"]
+    off = run(InterceptParams.model_validate({"methods": ["impulsive"], "intercept_time_s": 6000.0,
+                                              "scan": {"step_s": 5.0, "exclude_through_planet": False}}), Ctx())
+    assert off.status == "succeeded" and off.result["impulsive"]["through_planet"]["excluded_solutions"] == 0
+
+
+def test_paper_notes_only_on_the_paper_scenario():
+    # The paper's figures (1501.73 m/s, 271.42 kg) are quoted only beside an answer to its own case
+    # (issue 15, item 4); a changed geometry gets the model's own notes only.
+    from app.kinds.intercept import FINITE_NOTE, PAPER_NOTE
+    from solvers.intercept_cases import is_paper_003
+
+    paper = run(InterceptParams.model_validate({"methods": ["impulsive"], "scan": {"step_s": 20.0}}), Ctx())
+    assert PAPER_NOTE in paper.result["notes"]
+    g98 = run(InterceptParams.model_validate({"methods": ["impulsive"], "scan": {"step_s": 20.0}, "g0_mps2": 9.8}),
+              Ctx())
+    assert PAPER_NOTE in g98.result["notes"]                  # the paper's own g0: still its case
+    for change in ({"intercept_time_s": 7000.0}, {"target": {"arg_latitude_deg": 40.0}},
+                   {"interceptor": {"mass_kg": 600.0}}):
+        out = run(InterceptParams.model_validate({"methods": ["impulsive"], "scan": {"step_s": 20.0}, **change}),
+                  Ctx())
+        notes = " ".join(out.result["notes"])
+        assert PAPER_NOTE not in out.result["notes"] and FINITE_NOTE not in out.result["notes"], change
+        assert "1501.73" not in notes and "271.4" not in notes and "2302.48" not in notes, change
+        assert "g0 =" in notes
+    assert is_paper_003(PAPER_003) and is_paper_003(replace(PAPER_003, g0_mps2=9.8))
+    assert not is_paper_003(replace(PAPER_003, tf_s=8000.0))
+    assert not is_paper_003(replace(PAPER_003, isp_s=310.0))
