@@ -15,6 +15,7 @@ from app.deps import CeleryDep, DatabaseDep, SettingsDep
 from app.kinds import KINDS, PRESETS
 from app.params import resolve_params
 from app.results.compact import compact
+from app.results.models import JobResult, result_json
 from app.schemas import ErrorBody, JobList, JobOut, JobStatus, JobSubmission, NotSucceededBody, ValidationErrorBody
 from app.broker import publish_job
 
@@ -105,7 +106,8 @@ def get_job(job_id: str, db: DatabaseDep, principal: PrincipalDep):
     return _job_response(jobs.job_json(visible_job(db, job_id, principal)))
 
 
-@router.get("/{job_id}/result", responses={
+@router.get("/{job_id}/result", response_model=JobResult, responses={
+    200: {"description": "The result: one of the kinds' result models (fields and units in each schema)"},
     404: {"model": ErrorBody, "description": "Unknown job"},
     409: {"model": NotSucceededBody, "description": "Not succeeded (yet): the body gives the status, the error and any stored diagnostic "
                          "or partial result (e.g. the Pareto front of a cancelled run)"}})
@@ -125,7 +127,9 @@ def get_result(job_id: str, db: DatabaseDep, principal: PrincipalDep,
     headers = {"ETag": etag, "Cache-Control": "private, max-age=86400"}
     if if_none_match and etag in [t.strip() for t in if_none_match.split(",")]:
         return Response(status_code=304, headers=headers)
-    return JSONResponse(compact(job.kind, result, set(include)), headers=headers)
+    # validated by the kind's model and written by pydantic-core (app.results.models.result_json)
+    return Response(result_json(job.kind, compact(job.kind, result, set(include))), media_type="application/json",
+                    headers=headers)
 
 
 @router.post("/{job_id}/cancel", status_code=202, response_model=JobOut, responses={404: {"model": ErrorBody, "description": "Unknown job"}})
