@@ -26,6 +26,7 @@ import numpy as np
 from solvers.common import Outcome, ProgressFn, SolveStatus, StopFn
 from solvers.models import reentry_dynamics as dyn
 from solvers.models import shuttle as sh
+from solvers.models import vehicle_data as vd
 from solvers.models.reentry_state import (ALPHA, BANK, LATITUDE, LONGITUDE, NU, NX, STATE_NAMES, STATES,
                                           U_SCALE, X_SCALE, Trajectory, box_bounds)
 from solvers.transcription.multiple_shooting import (PathConstraint, ShootingProblem, Transcription,
@@ -122,23 +123,21 @@ class ReentrySolution:
 
 
 # --- NLP parameters: vehicle data and limits are numbers, not structure ----------------------
+# Layout: [mass, area, aero numbers, cd_scale, cl_scale, q_max, qbar_max, n_max, lon0, lat0,
+# heating numbers] (solvers.models.vehicle_data: polynomial coefficients, none for a table; the
+# Sutton-Graves nose radius and constant).
 def _param_vector(problem: ReentryProblem) -> np.ndarray:
     v = problem.vehicle
-    return np.array([v.mass_kg, v.area_m2, *v.cl_coeffs, *v.cd_coeffs, v.cd_scale, v.cl_scale,
+    return np.array([v.mass_kg, v.area_m2, *vd.aero_numbers(v), v.cd_scale, v.cl_scale,
                      problem.max_heat_rate_w_m2 or 1.0, problem.max_dynamic_pressure_pa or 1.0,
                      problem.max_load_factor or 1.0, problem.initial_state[LONGITUDE],
-                     problem.initial_state[LATITUDE]], float)
+                     problem.initial_state[LATITUDE], *vd.heating_numbers(v)], float)
 
 
 def _symbolic_vehicle(vehicle: sh.Vehicle, p):
-    ncl, ncd = len(vehicle.cl_coeffs), len(vehicle.cd_coeffs)
-    i = 2
-    cl = tuple(p[i + k] for k in range(ncl))
-    i += ncl
-    cd = tuple(p[i + k] for k in range(ncd))
-    i += ncd
-    veh = dataclasses.replace(vehicle, mass_kg=p[0], area_m2=p[1], cl_coeffs=cl, cd_coeffs=cd,
-                              cd_scale=p[i], cl_scale=p[i + 1])
+    i = 2 + len(vd.aero_numbers(vehicle))
+    over = vd.with_symbols(vehicle, p[2:i], p[i + 7:i + 7 + len(vd.heating_numbers(vehicle))])
+    veh = dataclasses.replace(vehicle, mass_kg=p[0], area_m2=p[1], cd_scale=p[i], cl_scale=p[i + 1], **over)
     return veh, p[i + 2], p[i + 3], p[i + 4], p[i + 5], p[i + 6]
 
 
@@ -183,9 +182,7 @@ def _shooting_problem(problem: ReentryProblem, *, with_path: bool = True) -> Sho
     elif obj == "min_time":
         mayer = lambda xf, T, p: T  # noqa: E731
         scale = T_SCALE
-    atm = veh0.atmosphere
-    key = ("reentry", obj, len(veh0.cl_coeffs), len(veh0.cd_coeffs), tuple(veh0.heat_coeffs),
-           atm, veh0.planet, veh0.rotating_earth)
+    key = ("reentry", obj, *vd.model_key(veh0))
     return ShootingProblem(
         key=key, nx=NX, nu=NU, n_params=n_params, dynamics=dynamics, x_scale=X_SCALE,
         u_scale=U_SCALE, t_scale=T_SCALE, intervals=problem.intervals, control=problem.control,

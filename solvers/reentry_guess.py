@@ -43,9 +43,12 @@ def rhs_numpy(vehicle):
 
 def simulate_constant_controls(problem: ReentryProblem, *, alpha_rad: float, bank_rad: float,
                                t_max: float = 5000.0, dt: float = 5.0) -> InitialGuess:
-    """Fixed-step RK4 glide with constant controls until the terminal altitude or speed is reached."""
+    """Fixed-step RK4 glide with constant controls until the terminal altitude or speed is reached.
+
+    The controls are clipped to the problem's bounds (a capsule's alpha range is far from the
+    shuttle's 17 deg), so the guess is a trajectory the problem can fly."""
     rhs = rhs_numpy(problem.vehicle)
-    u = np.array([alpha_rad, bank_rad])
+    u = np.array([np.clip(alpha_rad, *problem.alpha_bounds_rad), np.clip(bank_rad, *problem.bank_bounds_rad)])
     x = np.asarray(problem.initial_state, float)
     h_end = problem.terminal.altitude_m if problem.terminal.altitude_m is not None else 0.0
     v_end = problem.terminal.speed_mps if problem.terminal.speed_mps is not None else 0.0

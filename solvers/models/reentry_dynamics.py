@@ -9,7 +9,10 @@ State ``x = (h [m], lon [rad], lat [rad], v [m/s], gamma [rad], psi [rad])``, co
 ``u = (alpha [rad], bank [rad])``.  ``x`` may be shape (6,) or (6, N) (vectorized over N nodes
 or samples) numpy arrays, or CasADi SX/MX of shape (6, 1) or (6, N); ``xp`` is ``numpy`` or
 ``casadi`` (auto-detected when None).  Aero and heating fits take alpha in degrees; the heating
-fit takes slug/ft^3 and ft/s (Betts eq. 6.101) and is converted to W/m^2 here.
+fit takes slug/ft^3 and ft/s (Betts eq. 6.101) and is converted to W/m^2 here.  A vehicle may
+instead carry aerodynamic tables against alpha and Mach (:mod:`solvers.models.aerodynamics`) and
+the Sutton-Graves heating correlation (:mod:`solvers.models.heating`); the planet and the
+atmosphere are the vehicle's too.
 """
 from __future__ import annotations
 
@@ -47,8 +50,14 @@ def aero(x, u, p, xp=None, *, cd_scale=1.0, cl_scale=1.0):
     alpha = _rows(u, 2, xp)[0]
     a_deg = alpha / sh.DEG
     rho = p.atmosphere.density(h, xp)
-    cl = _poly(p.cl_coeffs, a_deg) * p.cl_scale * cl_scale
-    cd = _poly(p.cd_coeffs, a_deg) * p.cd_scale * cd_scale
+    if p.aero_table is not None:
+        mach = _rows(x, 6, xp)[3] / p.atmosphere.speed_of_sound(h, xp)
+        cl0 = p.aero_table.coefficient("cl", a_deg, mach, xp)
+        cd0 = p.aero_table.coefficient("cd", a_deg, mach, xp)
+    else:
+        cl0, cd0 = _poly(p.cl_coeffs, a_deg), _poly(p.cd_coeffs, a_deg)
+    cl = cl0 * p.cl_scale * cl_scale
+    cd = cd0 * p.cd_scale * cd_scale
     return rho, cl, cd
 
 
@@ -85,9 +94,12 @@ def eom(x, u, p, xp=None, *, cd_scale=1.0, cl_scale=1.0):
 
 
 def heat_rate(x, u, p, xp=None):
-    """Stagnation heating rate in W/m^2 from Betts' fit (eq. 6.101, BTU/ft^2/s inside)."""
+    """Stagnation heating rate in W/m^2 by the vehicle's model: Sutton-Graves when it has one,
+    else Betts' fit (eq. 6.101, BTU/ft^2/s inside)."""
     xp = xp or backend(x, u)
     h, _, _, v, _, _ = _rows(x, 6, xp)
+    if p.heating is not None:
+        return p.heating.heat_rate(p.atmosphere.density(h, xp), v, p.planet, xp)
     alpha = _rows(u, 2, xp)[0]
     a_deg = alpha / sh.DEG
     rho_e = p.atmosphere.density(h, xp) * sh.KG_M3_TO_SLUG_FT3

@@ -15,7 +15,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from solvers.models.aerodynamics import AeroTable
 from solvers.models.atmosphere import Atmosphere
+from solvers.models.heating import SuttonGraves
+from solvers.models.planet import Planet
 
 # --- unit conversions (exact where defined exactly) -------------------------------------
 FT_TO_M = 0.3048
@@ -29,20 +32,17 @@ DEG = math.pi / 180.0
 
 
 @dataclass(frozen=True)
-class Planet:
-    mu_m3_s2: float
-    radius_m: float
-    omega_rad_s: float = 7.2921159e-5
-
-
-@dataclass(frozen=True)
 class Vehicle:
-    """Point-mass lifting vehicle: mass, reference area, aero and heating polynomial fits.
+    """Point-mass lifting vehicle: mass, reference area, aerodynamics, heating model, and the
+    atmosphere and planet it flies in.
 
-    Polynomials are in alpha **degrees**, lowest order first: ``CL = sum cl[k] a^k``.
-    ``heat_coeffs`` multiply ``17700 sqrt(rho[slug/ft^3]) (1e-4 v[ft/s])^3.07`` (Betts eq. 6.101)
-    and give BTU/ft^2/s; :func:`solvers.models.reentry_dynamics.heat_rate` converts to W/m^2.
-    ``cd_scale``/``cl_scale`` multiply the coefficients (robust kind: ``CD = CD_N (1 + s1)``).
+    Aerodynamics: ``aero_table`` (:class:`solvers.models.aerodynamics.AeroTable`, CL/CD against
+    alpha and Mach) when given, else the polynomials in alpha **degrees**, lowest order first:
+    ``CL = sum cl[k] a^k``.  Heating: ``heating`` (:class:`solvers.models.heating.SuttonGraves`)
+    when given, else Betts' fit: ``heat_coeffs`` multiply ``17700 sqrt(rho[slug/ft^3])
+    (1e-4 v[ft/s])^3.07`` (eq. 6.101) and give BTU/ft^2/s, converted to W/m^2 by
+    :func:`solvers.models.reentry_dynamics.heat_rate`.  ``cd_scale``/``cl_scale`` multiply the
+    coefficients of either aerodynamic model (robust kind: ``CD = CD_N (1 + s1)``).
     Fields may hold CasADi symbols, so a built NLP can take the vehicle as parameters.
     """
 
@@ -56,12 +56,15 @@ class Vehicle:
     rotating_earth: bool = False
     cd_scale: float = 1.0
     cl_scale: float = 1.0
+    aero_table: AeroTable | None = None
+    heating: SuttonGraves | None = None
 
 
 ReentryModel = Vehicle
 """Alias: the dynamics' parameter object (vehicle + atmosphere + planet + flags)."""
 
-EARTH_BETTS = Planet(mu_m3_s2=0.14076539e17 * FT3_TO_M3, radius_m=20902900.0 * FT_TO_M)
+# Betts' spherical, non-rotating Earth (the rotation rate is used only with rotating_earth).
+EARTH_BETTS = Planet(mu_m3_s2=0.14076539e17 * FT3_TO_M3, radius_m=20902900.0 * FT_TO_M, name="earth")
 BETTS_ATMOSPHERE = Atmosphere(kind="exponential", rho0_kg_m3=0.002378 * SLUG_FT3_TO_KG_M3,
                               scale_height_m=23800.0 * FT_TO_M)
 # Betts: weight 203000 lb with g0 = 32.174 ft/s^2, i.e. mass in slugs; S = 2690 ft^2.
