@@ -21,7 +21,7 @@ from typing import Literal
 
 import numpy as np
 
-from app.results.oem import MIN_STEP_S, write_oem
+from app.results.oem import MIN_STEP_S, spaced, write_oem
 
 STEP_S = 60.0  # state spacing of the file; every impulse adds a segment boundary
 
@@ -30,15 +30,6 @@ def default_point(result: dict) -> int:
     """Index of the front point of least delta-v (the first of them)."""
     dv = [np.inf if p["delta_v_mps"] is None else p["delta_v_mps"] for p in result["pareto_front"]]
     return int(np.argmin(dv))
-
-
-def _spaced(t: np.ndarray) -> np.ndarray:
-    keep = np.ones(t.size, bool)
-    last = t[0]
-    for i in range(1, t.size):  # the OEM's microsecond epochs must increase within a segment
-        keep[i] = t[i] - last >= MIN_STEP_S
-        last = t[i] if keep[i] else last
-    return keep
 
 
 def midcourse_segments(*, result: dict, params: dict, point: int,
@@ -57,7 +48,7 @@ def midcourse_segments(*, result: dict, params: dict, point: int,
     arcs = [flown.nominal] if trajectory == "nominal" else flown.corrected
     segments = []
     for arc in arcs:
-        keep = _spaced(arc.t_s)
+        keep = spaced(arc.t_s, min_step_s=MIN_STEP_S)
         x = arc.states[keep]
         segments.append((arc.t_s[keep], x[:, :3] @ m.T, x[:, 3:] @ m.T))
     frame = ("Earth-centred inertial: z along the Earth's spin axis, x in the launch meridian at t0 (the "

@@ -21,7 +21,7 @@ T0 = dt.datetime(2000, 1, 1, 12, 0, 0)
 MIN_STEP_S = 1e-3
 
 
-def _spaced(t: np.ndarray, *, min_step_s: float) -> np.ndarray:
+def spaced(t: np.ndarray, *, min_step_s: float) -> np.ndarray:
     """Mask of the nodes at least ``min_step_s`` after the last kept one: segment boundaries repeat
     a node time and a vanishing arc packs nodes nanoseconds apart, which the OEM's microsecond
     epochs cannot order."""
@@ -49,7 +49,7 @@ def inertial_states(*, result: dict, params: dict) -> tuple[np.ndarray, np.ndarr
 
     tr = result["finite_thrust"]["trajectory"]
     t = np.asarray(tr["t_s"], float)
-    keep = _spaced(t, min_step_s=MIN_STEP_S)
+    keep = spaced(t, min_step_s=MIN_STEP_S)
     p = InterceptParams.model_validate(params)
     _, _, rt0, vt0 = to_problem(p).scenario.initial_states()
     r_t, v_t = circular_state(r0=rt0, v0=vt0, mu=p.mu_m3_s2, t=t[keep])
