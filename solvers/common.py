@@ -25,6 +25,7 @@ class Outcome(str, Enum):
     INFEASIBLE = "infeasible"        # the NLP solver proved or reported local infeasibility
     NOT_CONVERGED = "not_converged"  # iteration/time budget exhausted, or diverged
     CANCELLED = "cancelled"          # should_stop() answered True
+    LIMIT_NOT_HELD = "limit_not_held"  # converged, but a path limit is exceeded between the nodes
     FAILED = "failed"                # anything else (bad problem data detected late, numerical error)
 
 

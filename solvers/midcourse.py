@@ -31,6 +31,7 @@ import numpy as np
 
 from solvers.astro.j2 import GravityConstants, J2Propagator, LaunchFrame
 from solvers.common import Outcome, ProgressFn, SolveStatus, StopFn, never_stop, noop_progress
+from solvers.midcourse_cases import MIN_SPACING_S
 from solvers.midcourse_search import hypervolume, nondominated, repair_schedule, run_nsga2
 
 __all__ = ["CorrectionEvaluator", "Dispersion", "GASettings", "MidcourseProblem", "MidcourseSolution",
@@ -92,7 +93,7 @@ class MidcourseProblem:
     schedules: list[list[float]] = field(default_factory=list)
     corrections: int = 2
     time_bounds: tuple[float, float] = (0.0, 12800.0)
-    min_spacing: float = 0.0
+    min_spacing: float = MIN_SPACING_S
     ga: GASettings = GASettings()
     dispersion: Dispersion | None = None
     hypervolume_reference: tuple[float, float, float] = (150.0, 2000.0, 70.0)

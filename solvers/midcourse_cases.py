@@ -24,6 +24,11 @@ V_TARGET_MPS = (-1889.2754, 781.3548, -73.1586)
 POSITION_ERROR_M = (-100.0, 100.0, 100.0)
 VELOCITY_ERROR_MPS = (10.0, -10.0, 10.0)
 TF_S = 12900.0
+# Default minimum time between two corrections.  A real stage cannot fire twice within
+# milliseconds: between burns it must settle, re-acquire its navigation solution and re-plan,
+# and a navigation update cycle or a thruster's minimum off-time is tens of seconds to minutes.
+# With 0 the GA put two corrections 0.2 ms apart (one burn split in two, issue 15).
+MIN_SPACING_S = 60.0
 
 TABLE3_SCHEDULES_S = [[], [6000.0], [8000.0], [3000.0, 8000.0], [1000.0, 8000.0],
                       [2000.0, 5000.0, 8000.0], [1000.0, 5000.0, 8000.0]]

@@ -41,7 +41,9 @@ PRESETS = [
             "Delta-v and velocity errors match the paper to 0.5 m/s; position errors after a late "
             "correction are ~330 m vs the paper's 261 m (cause unknown); the front spans late second "
             "corrections in this model (position error falls as t2 moves later), beyond the paper's "
-            "t2 in 8150-8250 s. " + PAPER_NOTE
+            "t2 in 8150-8250 s. Corrections are at least min_spacing_s = 60 s apart (the default: time to "
+            "settle and update the navigation between burns; with 0 the front's cheapest point fired two "
+            "corrections 0.16 ms apart, one burn split in two). " + PAPER_NOTE
         ),
         params={"mode": "optimize", "corrections": 2, "population": 100, "generations": 500, "seed": 1,
                 "crossover_prob": 0.8, "mutation_prob": 0.1},

@@ -122,7 +122,11 @@ class MidcourseParams(StrictModel):
                                        examples=[False])
     time_bounds_s: list[float] = Field(default_factory=lambda: [0.0, 12800.0], min_length=2, max_length=2,
                                        description="[earliest, latest] correction time", examples=[[0.0, 12800.0]])
-    min_spacing_s: float = Field(0.0, ge=0, description="Minimum time between corrections", examples=[0.0])
+    min_spacing_s: float = Field(cases.MIN_SPACING_S, ge=0, description="Minimum time between corrections. Default "
+                                 "60 s: a stage needs time between burns to settle, update its navigation "
+                                 "solution and re-plan (a navigation update cycle or a thruster's minimum "
+                                 "off-time is tens of seconds to minutes); 0 lets two corrections merge into "
+                                 "one split burn", examples=[60.0])
     tf_s: float = Field(cases.TF_S, gt=0, le=1e7, description="Transfer time T: the target is reached at tf_s",
                         examples=[12900.0])
     frame: Literal["launch", "eci"] = Field(

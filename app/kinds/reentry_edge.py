@@ -17,7 +17,6 @@ from app.kinds.reentry_params import ReentryParams
 from solvers.models.reentry_state import CONTROLS, STATE_INDEX, STATES, Trajectory
 
 MAX_DENSE_POINTS = 500   # points of the verification's dense trajectory kept in a result
-VERIFICATION_METHOD = "scipy DOP853, rtol 1e-10, controls interpolated as in the transcription"
 
 
 def json_list(values) -> list:
@@ -54,7 +53,8 @@ def to_problem(params: ReentryParams):
         max_heat_rate_w_m2=params.path.max_heat_rate_w_m2,
         max_dynamic_pressure_pa=params.path.max_dynamic_pressure_pa,
         max_load_factor=params.path.max_load_factor,
-        path_enforcement=params.path.enforcement,
+        path_enforcement=params.path.enforcement, limit_tolerance=params.path.limit_tolerance,
+        limit_rounds=params.path.limit_rounds,
         intervals=params.grid.intervals, control=params.grid.control, substeps=params.grid.substeps)
 
 
@@ -134,7 +134,7 @@ def verification_block(ver, *, node_heat_rate, time_s: float) -> dict | None:
     if ver is None:
         return None
     dfx, worst = ver.final_difference, ver.max_node_difference
-    out = {"method": VERIFICATION_METHOD}
+    out = {"method": ver.method}
     for i, c in enumerate(STATES):
         unit = "deg" if c.is_angle else c.name.rsplit("_", 1)[1]
         out[f"final_{c.name.rsplit('_', 1)[0]}_diff_{unit}"] = json_float(c.to_api(dfx[i]))
@@ -148,11 +148,31 @@ def verification_block(ver, *, node_heat_rate, time_s: float) -> dict | None:
         "max_heat_rate_nodes_w_m2": json_float(np.max(node_heat_rate)),
         "max_dynamic_pressure_pa": json_float(ver.path_max["dynamic_pressure_pa"]),
         "max_load_factor": json_float(ver.path_max["load_factor"]),
-        "dense_samples": int(ver.t.size), "ok": bool(ver.ok), "message": ver.message,
+        "dense_samples": int(ver.t.size), "samples_per_interval": int(ver.samples_per_interval),
+        "ok": bool(ver.ok), "message": ver.message,
         "time_s": json_float(time_s),
-        "trajectory": _dense_trajectory(ver),
     })
+    if ver.error_estimate is not None:
+        for name in ("altitude_m", "speed_mps", "latitude_rad"):
+            c = STATES[STATE_INDEX[name]]
+            unit = "deg" if c.is_angle else c.name.rsplit("_", 1)[1]
+            out[f"error_estimate_{name.rsplit('_', 1)[0]}_{unit}"] = json_float(
+                c.to_api(ver.error_estimate[STATE_INDEX[name]]))
+    out.update(limits_block(ver.limits))
+    out["trajectory"] = _dense_trajectory(ver)
     return out
+
+
+def limits_block(limits: dict) -> dict:
+    """Limits that hold: per limited quantity, the worst value on the dense grid, the limit and
+    whether it held within the tolerance; ``limits_held`` over all (null when no limit is set)."""
+    if not limits:
+        return {"limits": {}, "limits_held": None}
+    block = {q: {"limit": json_float(c["limit"]), "max": json_float(c["max"]),
+                 "max_t_s": json_float(c["max_t_s"]), "excess_percent": json_float(100 * c["excess"]),
+                 "tolerance_percent": json_float(100 * c["tolerance"]), "held": bool(c["held"])}
+             for q, c in limits.items()}
+    return {"limits": block, "limits_held": all(c["held"] for c in block.values())}
 
 
 def result_blocks(*, trajectory: Trajectory, tf_s: float, status, stages: list[dict], notes: list[str],

@@ -59,8 +59,18 @@ class ReentryPathLimits(StrictModel):
     max_load_factor: float | None = Field(None, gt=0, description="Aerodynamic load-factor limit "
                                           "sqrt(L^2+D^2)/(m g0)", examples=[2.5])
     enforcement: Literal["nodes", "midpoints", "substeps", "integral"] = Field(
-        "nodes", description="Where path limits are enforced: at the nodes, also at interval "
-        "midpoints or every RK4 substep, or by paper 000's integral penalty", examples=["nodes"])
+        "substeps", description="Where the NLP enforces path limits: at the nodes, also at interval "
+        "midpoints or every RK4 substep (the default), or by paper 000's integral penalty. Whatever "
+        "is chosen, the answer is re-checked on the dense re-propagation (20 points per interval) "
+        "and tightened until every limit holds there (limit_rounds, limit_tolerance)",
+        examples=["substeps"])
+    limit_tolerance: float = Field(1e-3, gt=0, le=0.1, description="Limits that hold: the worst "
+                                   "dense value may exceed a limit by at most this fraction of it",
+                                   examples=[0.001])
+    limit_rounds: int = Field(6, ge=0, le=20, description="Warm-started re-solves that lower the "
+                              "limit on the intervals where the dense re-propagation overshoots it; "
+                              "if the limits still do not hold, the job fails with code "
+                              "limit_not_held and stores the best answer", examples=[6])
 
 
 class ReentryTerminal(StrictModel):

@@ -111,6 +111,17 @@ class ReentryResultDenseTrajectory(ResultModel):
     load_factor: Series | None = Field(None, description="Load factor (g, dimensionless)")
 
 
+class ReentryResultLimitCheck(ResultModel):
+    """One path limit checked on the dense re-propagation (limits that hold)."""
+
+    limit: Num = Field(description="The limit, in the quantity's unit (W/m^2, Pa or g)")
+    max: Num = Field(description="Worst value on the dense grid (same unit)")
+    max_t_s: Num = Field(description="Time of that worst value (s)")
+    excess_percent: Num = Field(description="Worst value over the limit, in percent of the limit (negative: margin)")
+    tolerance_percent: Num = Field(description="How far above the limit still counts as held (percent)")
+    held: bool = Field(description="The worst value is within the tolerance of the limit")
+
+
 class ReentryResultVerification(ResultModel):
     """The optimal controls re-propagated with an accurate integrator, independent of the transcription."""
 
@@ -129,6 +140,16 @@ class ReentryResultVerification(ResultModel):
     max_dynamic_pressure_pa: Num = Field(description="Peak dynamic pressure, dense (Pa)")
     max_load_factor: Num = Field(description="Peak load factor, dense (g, dimensionless)")
     dense_samples: int = Field(description="Points of the dense re-propagation")
+    samples_per_interval: int | None = Field(None, description="Dense points per shooting interval")
+    error_estimate_altitude_m: Num = Field(None, description="Step-doubling estimate of the dense "
+                                           "trajectory's altitude error, worst over time (m)")
+    error_estimate_speed_mps: Num = Field(None, description="Same for speed (m/s)")
+    error_estimate_latitude_deg: Num = Field(None, description="Same for latitude (deg)")
+    limits: dict[str, ReentryResultLimitCheck] | None = Field(
+        None, description="Per limited path quantity (heat_rate_w_m2, dynamic_pressure_pa, load_factor): "
+        "worst dense value, limit, held")
+    limits_held: bool | None = Field(None, description="Every path limit held on the dense grid "
+                                     "(null: no limit set)")
     ok: bool = Field(description="The integrator reached the final time")
     message: str = Field(description="The integrator's message (empty when ok)")
     time_s: Num = Field(description="Wall time of the verification (s)")

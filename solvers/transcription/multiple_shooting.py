@@ -268,12 +268,46 @@ class Transcription:
             i += n
         return out
 
+    def path_upper_bounds(self, margins: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Upper bounds of the pointwise path blocks when constraint ``name`` is tightened by
+        ``margins[name][j]`` on interval ``j`` (shape (m,), in the constraint's normalized units:
+        0.01 asks ``c <= -0.01``, i.e. 1% under the limit).  A node takes the larger margin of its
+        two intervals; interior points take their interval's.  Bounds, not structure: no rebuild.
+        """
+        prob = self.prob
+        m = prob.intervals
+        node_path = [c for c in prob.path if not c.integral]
+
+        def margin_of(c):
+            return np.zeros(m) if c.name not in margins else np.asarray(margins[c.name], float)
+
+        out = {}
+        if node_path:
+            rows = []
+            for c in node_path:
+                mj = margin_of(c)
+                node = np.maximum(np.append(mj, 0.0), np.insert(mj, 0, 0.0))
+                rows += [node] * c.size
+            out["path_nodes"] = -np.vstack(rows).ravel(order="F")
+        inner_rows = []
+        for j in range(prob.substeps - 1):
+            for c in prob.path:
+                if not c.integral and (c.where == "substeps" or (c.where == "midpoints"
+                                                                 and j + 1 == prob.substeps // 2)):
+                    inner_rows += [margin_of(c)] * c.size
+        if inner_rows:
+            out["path_inner"] = -np.vstack(inner_rows).ravel(order="F")
+        return out
+
     def solve(self, *, p, x_lb, x_ub, u_lb, u_ub, tf_bounds, guess,
               terminal_bounds=None, on_progress: ProgressFn | None = None,
               should_stop: StopFn | None = None, progress_span=(0.0, 1.0),
-              expected_iterations: int = 60) -> ShootingResult:
+              expected_iterations: int = 60, path_margins: dict[str, np.ndarray] | None = None,
+              warm: "ShootingResult | None" = None) -> ShootingResult:
         """``x_lb/x_ub``: (nx, m+1) physical; ``u_lb/u_ub``: (nu,) or (nu, nodes);
-        ``guess = (tf, x (nx, m+1), u (nu, nodes))`` physical."""
+        ``guess = (tf, x (nx, m+1), u (nu, nodes))`` physical.  ``path_margins``: see
+        :meth:`path_upper_bounds`.  ``warm``: a previous result of this transcription whose
+        multipliers start IPOPT (with its primal point as ``guess``)."""
         prob = self.prob
         m = prob.intervals
         nun = self.nu_nodes
@@ -282,17 +316,20 @@ class Transcription:
         lbz = self.pack(tf_bounds[0], x_lb, u_lb)
         ubz = self.pack(tf_bounds[1], x_ub, u_ub)
         z0 = np.clip(self.pack(*guess), lbz, ubz)
+        upper = self.path_upper_bounds(path_margins) if path_margins else {}
         lbg, ubg = [], []
         for name, n, lo, hi in self._g_layout:
             if name == "terminal":
                 lo, hi = terminal_bounds
+            hi = upper.get(name, hi)
             lbg.append(np.broadcast_to(np.asarray(lo, float), (n,)))
             ubg.append(np.broadcast_to(np.asarray(hi, float), (n,)))
+        lam = {} if warm is None else {"lam_x0": warm.nlp.lam_x, "lam_g0": warm.nlp.lam_g}
         res = self.solver.solve(x0=z0, lbx=lbz, ubx=ubz, lbg=np.concatenate(lbg),
                                 ubg=np.concatenate(ubg), p=np.asarray(p, float),
                                 on_progress=on_progress, should_stop=should_stop,
                                 progress_span=progress_span,
-                                expected_iterations=expected_iterations)
+                                expected_iterations=expected_iterations, **lam)
         tf, x, u = self.unpack(res.x)
         t = np.linspace(0.0, tf, m + 1)
         return ShootingResult(tf=tf, t=t, x=x, u=u, objective=res.f, nlp=res,

@@ -27,7 +27,8 @@ def test_presets_registered():
     assert SPEC.kind == "reentry"
     assert {p.name for p in PRESETS} == {
         "betts-max-crossrange", "betts-max-crossrange-heat-limited", "shuttle-max-downrange",
-        "shuttle-max-crossrange", "shuttle-min-heat-load", "shuttle-min-heat-load-terminal"}
+        "shuttle-max-crossrange", "shuttle-min-heat-load", "shuttle-min-heat-load-terminal",
+        "mars-msl-max-crossrange"}
     for p in PRESETS:
         Params.model_validate(p.params)
     desc = {p.name: p.description for p in PRESETS}
@@ -145,3 +146,33 @@ def test_non_finite_numbers_become_null_not_zero():
     assert block["latitude_deg"] == [math.degrees(1.0), math.degrees(1.0), None]
     assert block["heat_rate_w_m2"] == [1.0, None, 2.0]
     json.dumps(block, allow_nan=False)
+
+
+def test_heat_limited_preset_limits_block():
+    """Limits that hold: the verification reports each limit's worst fine-grid value and verdict."""
+    out = run(preset("betts-max-crossrange-heat-limited"), RecordingContext())
+    assert out.status == "succeeded"
+    res = json.loads(json.dumps(out.result, allow_nan=False))
+    ver = res["verification"]
+    assert ver["samples_per_interval"] == 20 and ver["dense_samples"] == 20 * 100 + 1
+    lim = ver["limits"]["heat_rate_w_m2"]
+    assert lim["limit"] == 794955.0 and lim["tolerance_percent"] == pytest.approx(0.1)
+    assert lim["held"] is True and ver["limits_held"] is True
+    assert lim["max"] <= 794955.0 * 1.001 and lim["excess_percent"] <= 0.1
+    assert lim["max"] == pytest.approx(ver["max_heat_rate_w_m2"], rel=1e-12)
+    assert 0.0 <= lim["max_t_s"] <= res["tf_s"]
+    assert 0.0 <= ver["error_estimate_altitude_m"] < 0.01 and ver["error_estimate_latitude_deg"] < 1e-6
+    assert res["final"]["latitude_deg"] == pytest.approx(30.6255, abs=0.01)
+    assert any("hold on the dense re-propagation" in n for n in res["notes"])
+
+
+def test_limit_not_held_fails_with_code_and_stores_the_answer():
+    p = preset("betts-max-crossrange-heat-limited", grid={"intervals": 50},
+               path={"enforcement": "nodes", "limit_rounds": 0})
+    out = run(p, RecordingContext())
+    assert out.status == "failed"
+    assert out.error["code"] == "limit_not_held"
+    assert "heat_rate_w_m2" in out.error["message"] and "limit_rounds 0" in out.error["message"]
+    ver = out.result["verification"]        # the best answer, stored as the diagnostic
+    assert ver["limits_held"] is False and ver["limits"]["heat_rate_w_m2"]["excess_percent"] > 0.5
+    assert out.result["solver"]["status"] == "Solve_Succeeded" and len(out.result["trajectory"]["t_s"]) == 51
