@@ -23,7 +23,8 @@ names carry the unit (`altitude_m`, `flight_path_deg`, `tf_s`).
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:
-    from app.routes import console, docs, events, health, jobs, lambert, presets, results, studies  # after settings: routes read the registry
+    from app.routes import (console, docs, events, health, jobs, lambert, presets, results,  # after settings: routes read the registry
+                            studies, vehicles)
     from app.broker import create_publisher
     from app.schemas import ValidationErrorBody
 
@@ -56,6 +57,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(console.router)
     console.mount_static(app)
     app.include_router(presets.router)
+    app.include_router(vehicles.router)
     app.include_router(studies.router, responses=bad_body | needs_key)
     app.include_router(lambert.router, responses=bad_body | needs_key, max_body_size=lambert.max_body_bytes(settings))
     app.include_router(health.router)

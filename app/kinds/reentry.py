@@ -60,6 +60,23 @@ PRESETS = [
            "solves (J = 4.71e12 SI).",
            {**_PAPER000, "objective": "min_heat_load",
             "terminal": {**_PAPER000["terminal"], "latitude_deg": 34.0, "speed_mps": 1287.6}}),
+    Preset("mars-msl-max-crossrange", "reentry",
+           "Mars entry of the Mars Science Laboratory capsule (vehicle preset msl, GET /v1/vehicles/msl): "
+           "entry state of the MSL design (Way et al. 2007, 'Mars Science Laboratory: Entry, Descent, "
+           "and Landing System Performance'): 125 km, 5.9 km/s, flight path -15.5 deg, heading east; "
+           "ends at parachute-deploy conditions, 10 km and 450 m/s (Mach 1.9 in this atmosphere), "
+           "flight path free; maximum final latitude (crossrange), bank in [-180, 180] deg as MSL's "
+           "bank-modulation guidance (Mendeck & Craig 2011). Alpha held within 1 deg of the -16 deg "
+           "trim (a capsule flies at trim). Differs from the flight: non-rotating Mars (relative and "
+           "inertial speed are the same here), central gravity, the NASA Glenn Mars atmosphere as a "
+           "log-density table (not Mars-GRAM), an aero table built to MSL's published trim values "
+           "(not its aerodatabase). Here: 1.1005 deg (65 km) at 100 intervals, tf 287.2 s; the "
+           "re-propagation meets the terminal conditions within 0.02 m and 0.001 m/s.",
+           {"vehicle": {"preset": "msl"}, "objective": "max_crossrange",
+            "initial_state": {"altitude_m": 125000.0, "longitude_deg": 0.0, "latitude_deg": 0.0,
+                              "speed_mps": 5900.0, "flight_path_deg": -15.5, "heading_deg": 90.0},
+            "terminal": {"altitude_m": 10000.0, "speed_mps": 450.0, "flight_path_deg": None},
+            "bounds": {"alpha_deg": [-17.0, -15.0], "bank_deg": [-180.0, 180.0]}}),
 ]
 
 

@@ -14,6 +14,7 @@ import numpy as np
 
 from app.kinds.base import json_float
 from app.kinds.reentry_params import ReentryParams
+from app.kinds.vehicle_params import named_atmosphere
 from solvers.models.reentry_state import CONTROLS, STATE_INDEX, STATES, Trajectory
 
 MAX_DENSE_POINTS = 500   # points of the verification's dense trajectory kept in a result
@@ -29,17 +30,8 @@ def to_problem(params: ReentryParams):
     import dataclasses
 
     from solvers import reentry as rs
-    from solvers.models import shuttle as sh
-    from solvers.models.atmosphere import Atmosphere
 
-    v = params.vehicle
-    over = {k: val for k, val in {"mass_kg": v.mass_kg, "area_m2": v.area_m2,
-                                  "cl_coeffs": tuple(v.cl_coeffs) if v.cl_coeffs else None,
-                                  "cd_coeffs": tuple(v.cd_coeffs) if v.cd_coeffs else None}.items()
-            if val is not None}
-    if params.atmosphere == "us1976":
-        over["atmosphere"] = Atmosphere(kind="us1976")
-    vehicle = dataclasses.replace(sh.SHUTTLE, rotating_earth=params.rotating_earth, **over)
+    vehicle = vehicle_of(params)
     s0, t = params.initial_state, params.terminal
     terminal = {c.name: None if getattr(t, c.api_name) is None else c.from_api(getattr(t, c.api_name))
                 for c in STATES}
@@ -56,6 +48,37 @@ def to_problem(params: ReentryParams):
         path_enforcement=params.path.enforcement, limit_tolerance=params.path.limit_tolerance,
         limit_rounds=params.path.limit_rounds,
         intervals=params.grid.intervals, control=params.grid.control, substeps=params.grid.substeps)
+
+
+def vehicle_of(params: ReentryParams):
+    """The solver's :class:`solvers.models.shuttle.Vehicle`: the named preset with the job's overrides
+    (mass, area, aerodynamics, heating), planet, atmosphere and rotation flag."""
+    import dataclasses
+
+    from solvers.models import vehicles
+    from solvers.models.heating import SuttonGraves
+
+    v = params.vehicle
+    base = vehicles.vehicle_preset(v.preset).vehicle
+    over = {k: val for k, val in {"mass_kg": v.mass_kg, "area_m2": v.area_m2}.items() if val is not None}
+    if v.cl_coeffs is not None or v.cd_coeffs is not None:
+        # polynomials given: they replace a preset's table; a missing one is the shuttle's
+        over.update(aero_table=None, cl_coeffs=tuple(v.cl_coeffs or base.cl_coeffs),
+                    cd_coeffs=tuple(v.cd_coeffs or base.cd_coeffs))
+    if v.aero_table is not None:
+        over["aero_table"] = v.aero_table.to_solver()
+    if v.heating is not None:
+        over["heating"] = (None if v.heating.model == "betts"
+                           else SuttonGraves(nose_radius_m=v.heating.nose_radius_m, k=v.heating.k))
+    if isinstance(params.planet, str):
+        over["planet"] = vehicles.PLANETS[params.planet]
+    elif params.planet is not None:
+        over["planet"] = params.planet.to_solver()
+    if isinstance(params.atmosphere, str):
+        over["atmosphere"] = named_atmosphere(params.atmosphere)
+    elif params.atmosphere is not None:
+        over["atmosphere"] = params.atmosphere.to_solver()
+    return dataclasses.replace(base, rotating_earth=params.rotating_earth, **over)
 
 
 def _from_api(component, values) -> np.ndarray:

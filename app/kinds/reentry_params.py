@@ -12,6 +12,8 @@ from typing import Literal
 from pydantic import Field, ValidationInfo, field_validator, model_validator
 
 from app.kinds.base import StrictModel
+from app.kinds.vehicle_params import (AtmosphereName, PlanetName, ReentryAeroTable, ReentryAtmosphereModel,
+                                      ReentryHeating, ReentryPlanet, VehicleName)
 from solvers.models import shuttle as sh
 from solvers.models.reentry_state import ALTITUDE, FLIGHT_PATH, HEADING, LATITUDE, LONGITUDE, SPEED
 
@@ -52,8 +54,9 @@ class ReentryGrid(StrictModel):
 
 
 class ReentryPathLimits(StrictModel):
-    max_heat_rate_w_m2: float | None = Field(None, gt=0, description="Stagnation heating-rate limit "
-                                             "(Betts fit); 794955 W/m^2 = 70 BTU/ft^2/s", examples=[794955.0])
+    max_heat_rate_w_m2: float | None = Field(None, gt=0, description="Stagnation heating-rate limit, by "
+                                             "the vehicle's heating model (shuttle: Betts' fit; msl: "
+                                             "Sutton-Graves); 794955 W/m^2 = 70 BTU/ft^2/s", examples=[794955.0])
     max_dynamic_pressure_pa: float | None = Field(None, gt=0, description="Dynamic-pressure limit",
                                                   examples=[15000.0])
     max_load_factor: float | None = Field(None, gt=0, description="Aerodynamic load-factor limit "
@@ -101,15 +104,26 @@ class ReentryInitialState(StrictModel):
 
 
 class ReentryVehicle(StrictModel):
-    preset: Literal["shuttle"] = Field("shuttle", description="Base vehicle (Betts shuttle); the "
-                                       "fields below override it", examples=["shuttle"])
+    preset: VehicleName = Field("shuttle", description="Base vehicle (GET /v1/vehicles: shuttle, msl); "
+                                "the fields below override it", examples=["shuttle"])
     mass_kg: float | None = Field(None, gt=0, description="Mass", examples=[92079.2])
     area_m2: float | None = Field(None, gt=0, description="Reference area", examples=[249.91])
     cl_coeffs: list[float] | None = Field(None, min_length=1, max_length=6, description="CL polynomial "
-                                          "in alpha degrees, lowest order first", examples=[[-0.20704, 0.029244]])
+                                          "in alpha degrees, lowest order first (replaces a table)",
+                                          examples=[[-0.20704, 0.029244]])
     cd_coeffs: list[float] | None = Field(None, min_length=1, max_length=6, description="CD polynomial "
-                                          "in alpha degrees, lowest order first",
+                                          "in alpha degrees, lowest order first (replaces a table)",
                                           examples=[[0.07854, -0.0061592, 0.000621408]])
+    aero_table: ReentryAeroTable | None = Field(None, description="CL and CD tables against alpha and "
+                                                "Mach (cubic B-spline; replaces the polynomials)", examples=[None])
+    heating: ReentryHeating | None = Field(None, description="Heating model; null: the preset's (shuttle: "
+                                           "Betts' fit, msl: Sutton-Graves r_n 1.125 m)", examples=[None])
+
+    @model_validator(mode="after")
+    def _one_aero_model(self):
+        if self.aero_table is not None and (self.cl_coeffs is not None or self.cd_coeffs is not None):
+            raise ValueError("give either aero_table or cl_coeffs/cd_coeffs, not both")
+        return self
 
 
 def _interval(v: list[float], name: str) -> list[float]:
@@ -158,8 +172,13 @@ class ReentryParams(StrictModel):
     bounds: ReentryControlBounds = Field(default_factory=ReentryControlBounds, description="Control bounds")
     rotating_earth: bool = Field(False, description="Coriolis and centripetal terms (paper 000 eq. 22)",
                                  examples=[False])
-    atmosphere: Literal["exponential", "us1976"] = Field("exponential", description="Betts exponential "
-                                                         "or U.S. Standard Atmosphere 1976", examples=["exponential"])
+    atmosphere: AtmosphereName | ReentryAtmosphereModel | None = Field(
+        None, description="null: the vehicle preset's (shuttle: Betts' exponential; msl: the Mars table); "
+        "exponential (Betts' Earth), us1976 (U.S. Standard Atmosphere 1976), mars (log-density table of "
+        "the NASA Glenn Mars model), or your own model", examples=["exponential"])
+    planet: PlanetName | ReentryPlanet | None = Field(
+        None, description="null: the vehicle preset's (shuttle: earth with Betts' constants; msl: mars); "
+        "a name, or a planet with overrides", examples=[None])
     initial_guess: ReentryGuess = Field(default_factory=ReentryGuess, description="Initial guess")
 
     @model_validator(mode="after")
