@@ -4,7 +4,9 @@
 :func:`monte_carlo_model` rebuilds the dynamics from it (registered in the Monte Carlo module as
 ``"shuttle_reentry"``).  Besides the terminal statistics, the model names what the results
 plot: an envelope (mean and std over time) of altitude, speed and heating rate, and the
-terminal altitude, speed and flight-path angle of individual samples.
+terminal altitude, speed and flight-path angle of individual samples.  Vehicles the compiled
+propagation handles (:func:`solvers.robust_reentry_kernel.supports`) run through it; the numpy
+right-hand side stays the reference and the path for every other vehicle.
 """
 from __future__ import annotations
 
@@ -15,8 +17,11 @@ import numpy as np
 
 from solvers.models import reentry_dynamics as dyn
 from solvers.models import shuttle as sh
+from solvers.models.aerodynamics import AeroTable
 from solvers.models.atmosphere import Atmosphere
+from solvers.models.heating import SuttonGraves
 from solvers.models.reentry_state import ALTITUDE, NU, NX, SPEED, STATE_INDEX, STATE_NAMES
+from solvers import robust_reentry_kernel as rk
 from solvers.uncertainty.montecarlo import MCModel
 from solvers.uncertainty.montecarlo import PathConstraint as MCPath
 
@@ -33,14 +38,18 @@ def vehicle_to_dict(v: sh.Vehicle) -> dict:
             "heat_coeffs": [float(c) for c in v.heat_coeffs],
             "atmosphere": dataclasses.asdict(v.atmosphere), "planet": dataclasses.asdict(v.planet),
             "rotating_earth": bool(v.rotating_earth), "cd_scale": float(v.cd_scale),
-            "cl_scale": float(v.cl_scale)}
+            "cl_scale": float(v.cl_scale),
+            "aero_table": None if v.aero_table is None else dataclasses.asdict(v.aero_table),
+            "heating": None if v.heating is None else dataclasses.asdict(v.heating)}
 
 
 def vehicle_from_dict(d: dict) -> sh.Vehicle:
     return sh.Vehicle(mass_kg=d["mass_kg"], area_m2=d["area_m2"], cl_coeffs=tuple(d["cl_coeffs"]),
                       cd_coeffs=tuple(d["cd_coeffs"]), heat_coeffs=tuple(d["heat_coeffs"]),
                       atmosphere=Atmosphere(**d["atmosphere"]), planet=sh.Planet(**d["planet"]),
-                      rotating_earth=d["rotating_earth"], cd_scale=d["cd_scale"], cl_scale=d["cl_scale"])
+                      rotating_earth=d["rotating_earth"], cd_scale=d["cd_scale"], cl_scale=d["cl_scale"],
+                      aero_table=AeroTable(**d["aero_table"]) if d.get("aero_table") else None,
+                      heating=SuttonGraves(**d["heating"]) if d.get("heating") else None)
 
 
 def monte_carlo_model(params: dict) -> MCModel:
@@ -64,9 +73,14 @@ def monte_carlo_model(params: dict) -> MCModel:
         path["load_factor"] = MCPath(
             fn=lambda x, u, s: dyn.load_factor(x, u, v, np, cd_scale=1.0 + s[0], cl_scale=1.0 + s[1]),
             limit=float(params["max_load_factor"]))
+    kernel = None
+    if rk.supports(v):
+        def kernel(*, x0, s, t_nodes, controls, substeps, kept_nodes):
+            return rk.run_chunk(v, x0=x0, s=s, t_nodes=t_nodes, controls=controls, substeps=substeps,
+                                kept_nodes=kept_nodes, path=tuple(path))
     return MCModel(nx=NX, nu=NU, ns=2, rhs=rhs,
                    terminal=lambda x: {n: x[i] for i, n in enumerate(STATE_NAMES)}, path=path,
-                   trace=trace, sampled_terminal=tuple(TERMINAL_INDEX))
+                   trace=trace, sampled_terminal=tuple(TERMINAL_INDEX), kernel=kernel)
 
 
 def monte_carlo_spec(problem: RobustReentryProblem, *, t, u, cadet_sigma=None, substeps: int = 5) -> dict:

@@ -69,6 +69,10 @@ class MCModel:
     path: dict[str, PathConstraint] = field(default_factory=dict)
     trace: Callable[..., dict[str, np.ndarray]] | None = None
     sampled_terminal: tuple[str, ...] = ()
+    # Optional compiled propagation of a whole chunk, used instead of rhs/path/trace when set:
+    # kernel(x0=, s=, t_nodes=, controls=, substeps=, kept_nodes=) -> (xf, worst_fine, worst_node,
+    # traces), the last three dicts by path or trace name; the same RK4, steps and checks.
+    kernel: Callable[..., tuple] | None = None
 
 
 _REGISTRY: dict[str, Callable[[dict], MCModel]] = {}
@@ -193,7 +197,8 @@ def simulate_chunk(spec: dict, seed: int, start_index: int, count: int) -> dict:
     ``controls`` (nu lists of n+1), ``x0_mean``, ``x0_cov`` (or null), ``s_mean``,
     ``s_cov``, ``substeps`` (RK4 steps per interval, also the fine check grid),
     ``required`` ({quantity: value}) and ``bands`` ({quantity: {band: half width}})
-    for the "within required value +- band" counts.
+    for the "within required value +- band" counts; optional ``propagator``: ``"numpy"`` forces
+    the numpy RK4 where the model also has a compiled kernel (the reference, for checks).
     """
     model = resolve_model(spec["model"], spec.get("model_params"))
     x0, s = draw_samples(spec, seed, start_index, count, nx=model.nx, ns=model.ns)
@@ -222,8 +227,14 @@ def simulate_chunk(spec: dict, seed: int, start_index: int, count: int) -> dict:
                 np.maximum(worst_node[nm], c, out=worst_node[nm])
 
     with np.errstate(all="ignore"):
-        xf = propagate(model, x0=x0, s=s, t_nodes=spec["t_nodes"], controls=spec["controls"],
-                       substeps=substeps, on_step=on_step)
+        if model.kernel is not None and spec.get("propagator", "compiled") != "numpy":
+            xf, worst_fine, worst_node, traces = model.kernel(
+                x0=x0, s=s, t_nodes=t_nodes, controls=spec["controls"], substeps=substeps, kept_nodes=kept_nodes)
+            if model.trace is None:
+                traces = {}
+        else:
+            xf = propagate(model, x0=x0, s=s, t_nodes=spec["t_nodes"], controls=spec["controls"],
+                           substeps=substeps, on_step=on_step)
         term = model.terminal(xf)
     ok = np.all(np.isfinite(xf), axis=0)
     out: dict = {"count": int(count), "failed": int(count - ok.sum()), "terminal": {}, "within": {},
