@@ -11,8 +11,8 @@ from app.kinds import KINDS
 from app.kinds.base import KindSpec, StrictModel
 
 JobStatus = Literal["queued", "running", "succeeded", "failed", "cancelled"]
-ErrorCode = Literal["infeasible", "not_converged", "limit_not_held", "time_limit", "worker_lost", "cancelled",
-                    "internal"]
+ErrorCode = Literal["infeasible", "not_converged", "limit_not_held", "not_robust", "time_limit", "worker_lost",
+                    "cancelled", "internal"]
 
 
 class JobError(BaseModel):

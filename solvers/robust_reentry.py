@@ -144,6 +144,7 @@ class RobustReentrySolution:
     stages: list[dict] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
     objective_unit: str = "rad"
+    augmented: np.ndarray | None = None   # packed CADET nodes (nz, m+1): the warm start of resolve()
 
     @property
     def trajectory(self) -> Trajectory:
@@ -323,12 +324,46 @@ def solve(problem: RobustReentryProblem, *, initial_guess=None, on_progress: Pro
             break
         guess = (res.tf, res.x, res.u)
 
+    return _finish(problem, cad, do=do, res=res, stages=stages, build_time=build_time,
+                   was_cached=tr.was_cached, do_pred=do_pred, notes=notes)
+
+
+def resolve(problem: RobustReentryProblem, previous: RobustReentrySolution, *,
+            on_progress: ProgressFn | None = None, should_stop: StopFn | None = None) -> RobustReentrySolution:
+    """The full robust problem (stage 2) again for corrected settings of ``problem`` (its kC, sigma
+    limits or heating margin), warm-started from ``previous``'s design: the Monte Carlo loop's
+    re-solve.  kC is an NLP parameter and the limits are bounds, so the built solver is reused."""
+    progress = on_progress or (lambda f, msg: None)
+    base, rob = problem.base, problem.robust
+    t_build = time.perf_counter()
+    cad = _sens(problem)
+    tr = Transcription(_robust_problem(problem, cad))
+    build_time = 0.0 if tr.was_cached else time.perf_counter() - t_build
+    unc = problem.uncertainty
+    theta = CadetSystem.theta(unc.s_mean, unc.s_cov)
+    guess = (previous.tf_s, previous.augmented, previous.u)
+    x_lb, x_ub, u_lb, u_ub, _, term = _bounds(problem, cad, sigma_limits=True)
+    res = tr.solve(p=np.concatenate([theta, [rob.k_objective, rob.k_constraint]]), x_lb=x_lb, x_ub=x_ub,
+                   u_lb=u_lb, u_ub=u_ub, tf_bounds=base.tf_bounds_s, guess=guess, terminal_bounds=term,
+                   on_progress=progress, should_stop=should_stop, expected_iterations=30)
+    stages = [s for s in previous.stages if s["stage"] == "deterministic"]
+    stages.append({"stage": f"robust re-solve (kC = {rob.k_constraint:.3f}, warm start)",
+                   "status": res.status.solver_status, "iterations": res.status.iterations,
+                   "solve_time_s": res.status.solve_time_s})
+    return _finish(problem, cad, do=previous.deterministic, res=res, stages=stages, build_time=build_time,
+                   was_cached=tr.was_cached, do_pred=previous.deterministic_prediction, notes=[])
+
+
+def _finish(problem, cad, *, do, res, stages, build_time, was_cached, do_pred, notes) -> RobustReentrySolution:
+    """Status over the robust stages, CADET prediction, objective and verification of a robust NLP result."""
+    base, rob, unc = problem.base, problem.robust, problem.uncertainty
+    theta = CadetSystem.theta(unc.s_mean, unc.s_cov)
     st = res.status
     status = dataclasses.replace(
         st, iterations=sum(s["iterations"] for s in stages if s["stage"].startswith("robust")),
         solve_time_s=sum(s["solve_time_s"] for s in stages if s["stage"].startswith("robust")),
         build_time_s=build_time,
-        details={**st.details, "stages": stages, "solver_cached": tr.was_cached,
+        details={**st.details, "stages": stages, "solver_cached": was_cached,
                  "deterministic_solve_time_s": do.status.solve_time_s,
                  "deterministic_iterations": do.status.iterations})
     if not st.ok:
@@ -350,4 +385,4 @@ def solve(problem: RobustReentryProblem, *, initial_guess=None, on_progress: Pro
     return RobustReentrySolution(
         status=status, deterministic=do, tf_s=res.tf, t=res.t, x=mean, u=res.u, objective_value=obj,
         heat_rate=pred.heat_mean, robust_prediction=pred, deterministic_prediction=do_pred,
-        verification=ver, stages=stages, notes=notes)
+        verification=ver, stages=stages, notes=notes, augmented=np.array(res.x))
