@@ -79,3 +79,28 @@ def test_the_generated_client_submits_waits_and_reads_typed_answers(service, gen
         rejected = submit_job.sync_detailed(client=client, body=bad)
         assert rejected.status_code == 422 and isinstance(rejected.parsed, ValidationErrorBody)
         assert "intercept_time_s" in rejected.parsed.message
+
+
+@pytest.mark.parametrize("preset", ["betts-max-crossrange", pytest.param("robust-max-crossrange", marks=pytest.mark.slow),
+                                    "upper-stage-table3", "long-range-intercept"])
+def test_the_generated_client_parses_each_kinds_result_into_its_model(generated, preset):
+    """The result union has no discriminator (a result does not carry its kind): the generated client
+    tries the models in order, and each kind's real result must land on its own model."""
+    import httpx
+
+    from app.results.compact import compact
+    from tests.preset_results import solve_preset
+    from trajlab_gen.api.jobs import get_result
+    from trajlab_gen.models import InterceptResult, MidcourseResult, ReentryResult, RobustReentryResult
+
+    kind, _, outcome = solve_preset(preset)
+    assert outcome.status == "succeeded"
+    want = {"reentry": ReentryResult, "robust_reentry": RobustReentryResult, "midcourse": MidcourseResult,
+            "intercept": InterceptResult}[kind]
+    client = generated.Client(base_url="http://127.0.0.1:9", raise_on_unexpected_status=True)
+    for include in (set(), {"scan", "samples"}):
+        body = compact(kind, outcome.result, include)
+        parsed = get_result._parse_response(client=client, response=httpx.Response(200, json=body))
+        assert type(parsed) is want, (preset, type(parsed))
+        assert not parsed.additional_properties
+        assert parsed.to_dict().keys() == body.keys()
