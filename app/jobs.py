@@ -15,8 +15,10 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 from datetime import datetime, timedelta, timezone
+from typing import Callable
 
 from sqlalchemy import Text, cast, func, or_, select, update
+from sqlalchemy.orm import Session
 
 from app.broker import QUEUE_JOBS
 from app.db import Database
@@ -93,9 +95,14 @@ class IdempotencyConflict(Exception):
 
 def create_job(db: Database, *, kind: str, params: dict, label: str | None, preset: str | None,
                idempotency_key: str | None = None, request_hash: str | None = None,
-               owner: str | None = None, queue: str = QUEUE_JOBS) -> tuple[Job, bool]:
+               owner: str | None = None, queue: str = QUEUE_JOBS,
+               admit: Callable[[Session], None] | None = None) -> tuple[Job, bool]:
     """Insert a queued job (attempt 1) of ``owner`` for ``queue``. Returns ``(job, created)``; an
-    identical request of the same owner with a known ``idempotency_key`` returns the existing job."""
+    identical request of the same owner with a known ``idempotency_key`` returns the existing job.
+
+    ``admit(session)`` runs in the same transaction just before a new job is inserted (never for a
+    repeated request) and refuses it by raising (the quota check): the idempotency lookup, the quota
+    and the insert are one transaction on one connection, not three."""
     with db.write() as s:
         if idempotency_key is not None:
             existing = s.scalar(select(Job).where(Job.idempotency_key == idempotency_key))
@@ -104,6 +111,8 @@ def create_job(db: Database, *, kind: str, params: dict, label: str | None, pres
                 if existing.request_hash != request_hash or existing.owner != owner:
                     raise IdempotencyConflict(idempotency_key)
                 return existing, False
+        if admit is not None:
+            admit(s)
         job = Job(kind=kind, params=params, label=label, preset=preset, status="queued",
                   progress=0.0, message="queued", attempts=1, cancel_requested=False,
                   idempotency_key=idempotency_key, request_hash=request_hash, created_at=utcnow(),
@@ -122,10 +131,11 @@ def find_idempotent(db: Database, idempotency_key: str, *, owner: str | None) ->
         return s.scalar(select(Job).where(Job.idempotency_key == idempotency_key, Job.owner == owner))
 
 
-def active_jobs(db: Database, owner: str | None) -> list[Job]:
-    """The owner's queued and running jobs (what quotas count); bounded by the per-owner limits."""
-    with db.read() as s:
-        return list(s.scalars(select(Job).where(Job.owner == owner, Job.status.in_(("queued", "running")))))
+def active_jobs(session: Session, owner: str | None) -> list:
+    """The owner's queued and running jobs (what quotas count: rows of ``status``, ``kind``, ``params``),
+    read in the caller's transaction; bounded by the per-owner limits."""
+    return list(session.execute(select(Job.status, Job.kind, Job.params).where(
+        Job.owner == owner, Job.status.in_(("queued", "running")))))
 
 
 NEWEST_FIRST = (Job.created_at.desc(), Job.id.desc())

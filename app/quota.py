@@ -28,6 +28,8 @@ from __future__ import annotations
 
 import math
 
+from sqlalchemy.orm import Session
+
 from app import jobs
 from app.broker import QUEUE_HEAVY, QUEUE_JOBS
 from app.db import Database
@@ -98,7 +100,15 @@ def check_quota(db: Database, settings: Settings, *, owner: str | None, cost: fl
     """Raise :class:`QuotaExceeded` if ``owner`` may not queue a job of ``cost`` now."""
     if owner is None:
         return
-    active = jobs.active_jobs(db, owner)
+    with db.read() as s:
+        check_quota_in(s, settings, owner=owner, cost=cost)
+
+
+def check_quota_in(session: Session, settings: Settings, *, owner: str | None, cost: float) -> None:
+    """:func:`check_quota` inside the caller's transaction (``jobs.create_job``'s ``admit``)."""
+    if owner is None:
+        return
+    active = jobs.active_jobs(session, owner)
     queued = sum(1 for j in active if j.status == "queued")
     used = sum(estimate_cost(j.kind, j.params) for j in active)
     retry = settings.quota_retry_after_s

@@ -58,19 +58,17 @@ def submit_job(
         body = submission.model_dump(mode="json", exclude_unset=True)
         request_hash = hashlib.sha256(json.dumps(body, sort_keys=True).encode()).hexdigest()
     owner = principal.owner
-    # Quotas count new work only: repeating an accepted submission returns its job even at the limit.
     cost = quota.estimate_cost(submission.kind, params)
-    if idempotency_key is None or jobs.find_idempotent(db, idempotency_key, owner=owner) is None:
-        try:
-            quota.check_quota(db, settings, owner=owner, cost=cost)
-        except quota.QuotaExceeded as exc:
-            raise HTTPException(status_code=429, detail=exc.message,
-                                headers={"Retry-After": str(exc.retry_after_s)})
+    # Quotas count new work only: repeating an accepted submission returns its job even at the limit
+    # (create_job admits only a new job; lookup, quota and insert are one transaction).
+    admit = None if owner is None else (lambda s: quota.check_quota_in(s, settings, owner=owner, cost=cost))
     try:
         job, created = jobs.create_job(db, kind=submission.kind, params=params, label=submission.label,
                                        preset=submission.preset, idempotency_key=idempotency_key,
                                        request_hash=request_hash, owner=owner,
-                                       queue=quota.queue_for(submission.kind, cost, settings))
+                                       queue=quota.queue_for(submission.kind, cost, settings), admit=admit)
+    except quota.QuotaExceeded as exc:
+        raise HTTPException(status_code=429, detail=exc.message, headers={"Retry-After": str(exc.retry_after_s)})
     except jobs.IdempotencyConflict:
         # draft-ietf-httpapi-idempotency-key-header: reuse with another payload is a 422.
         raise HTTPException(status_code=422, detail="Idempotency-Key was already used for a different request body")
