@@ -62,7 +62,7 @@ def vehicle_of(params: ReentryParams):
     base = vehicles.vehicle_preset(v.preset).vehicle
     over = {k: val for k, val in {"mass_kg": v.mass_kg, "area_m2": v.area_m2}.items() if val is not None}
     if v.cl_coeffs is not None or v.cd_coeffs is not None:
-        # polynomials given: they replace a preset's table; a missing one is the shuttle's
+        # polynomials replace a preset's table (then both are given: ReentryVehicle checks it)
         over.update(aero_table=None, cl_coeffs=tuple(v.cl_coeffs or base.cl_coeffs),
                     cd_coeffs=tuple(v.cd_coeffs or base.cd_coeffs))
     if v.aero_table is not None:

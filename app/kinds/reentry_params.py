@@ -13,7 +13,7 @@ from pydantic import Field, ValidationInfo, field_validator, model_validator
 
 from app.kinds.base import StrictModel
 from app.kinds.vehicle_params import (AtmosphereName, PlanetName, ReentryAeroTable, ReentryAtmosphereModel,
-                                      ReentryHeating, ReentryPlanet, VehicleName)
+                                      ReentryHeating, ReentryPlanet, VehicleName, has_aero_table)
 from solvers.models import shuttle as sh
 from solvers.models.reentry_state import ALTITUDE, FLIGHT_PATH, HEADING, LATITUDE, LONGITUDE, SPEED
 
@@ -123,6 +123,9 @@ class ReentryVehicle(StrictModel):
     def _one_aero_model(self):
         if self.aero_table is not None and (self.cl_coeffs is not None or self.cd_coeffs is not None):
             raise ValueError("give either aero_table or cl_coeffs/cd_coeffs, not both")
+        if (self.cl_coeffs is None) != (self.cd_coeffs is None) and has_aero_table(self.preset):
+            raise ValueError(f"vehicle {self.preset} has an aero table: give both cl_coeffs and cd_coeffs "
+                             "to replace it")
         return self
 
 

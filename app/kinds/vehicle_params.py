@@ -134,6 +134,11 @@ class ReentryAtmosphereModel(StrictModel):
                    sound_speeds_mps=list(a.sound_speeds_mps) or None, sound_speed_mps=a.sound_speed_mps)
 
 
+def has_aero_table(name: str) -> bool:
+    """Whether the named vehicle's aerodynamics are a table (not polynomials)."""
+    return vehicles.VEHICLES[name].vehicle.aero_table is not None
+
+
 def named_atmosphere(name: str) -> atmosphere.Atmosphere:
     """``exponential`` (Betts' Earth), ``us1976`` or ``mars`` (the Glenn Mars table)."""
     return vehicles.ATMOSPHERES[_ATMOSPHERE_NAMES[name]]
