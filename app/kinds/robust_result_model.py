@@ -183,6 +183,70 @@ class RobustResultMonteCarlo(ResultModel):
     robust: RobustResultMonteCarloDesign = Field(description="The robust design")
 
 
+class RobustResultHeatCheck(ResultModel):
+    """The heating limit in one confirmation round: what the design promised and what the Monte Carlo kept."""
+
+    target: Num = Field(description="Share of samples that must keep the limit over the whole flight (0-1)")
+    acceptance: Num = Field(description="target - tolerance: the least share accepted (0-1)")
+    tolerance: Num = Field(description="Sampling tolerance of the share at the loop's confidence (0-1)")
+    promised: Num = Field(description="Share CADET promises at the tightest instant, Phi(k effective) (0-1)")
+    monte_carlo: Num = Field(description="Share the Monte Carlo kept, fine grid (0-1)")
+    monte_carlo_nodes: Num = Field(description="The same at the NLP nodes only (0-1)")
+    k_constraint: Num = Field(description="kC the NLP used in this round (dimensionless)")
+    agrees: bool = Field(description="monte_carlo >= acceptance")
+
+
+class RobustResultSigmaCheck(ResultModel):
+    """A terminal sigma limit in one confirmation round (unit: the key's, m, m/s or deg)."""
+
+    limit: Num = Field(description="The user's sigma limit (unit of the quantity)")
+    limit_in_nlp: Num = Field(description="The limit the NLP used in this round (unit of the quantity)")
+    promised: Num = Field(description="CADET's sigma of the design (unit of the quantity)")
+    monte_carlo: Num = Field(description="Monte Carlo standard deviation (unit of the quantity)")
+    monte_carlo_relative_standard_error: Num = Field(description="Relative standard error of that estimate")
+    agrees: bool = Field(description="monte_carlo <= limit")
+
+
+class RobustResultRoundChecks(ResultModel):
+    """The constraints checked in a round (each present when its limit is set)."""
+
+    heat_rate: RobustResultHeatCheck | None = Field(None, description="The heating limit (shares 0-1)")
+    sigma_altitude_m: RobustResultSigmaCheck | None = Field(None, description="sigma of the final altitude (m)")
+    sigma_speed_mps: RobustResultSigmaCheck | None = Field(None, description="sigma of the final speed (m/s)")
+    sigma_flight_path_deg: RobustResultSigmaCheck | None = Field(
+        None, description="sigma of the final flight-path angle (deg)")
+
+
+class RobustResultPromisedVsMonteCarlo(ResultModel):
+    """mu(lat_f) - kJ sigma(lat_f): the NLP's value against the Monte Carlo's."""
+
+    promised: Num = Field(description="The NLP's (CADET's) robust objective (deg)")
+    monte_carlo: Num = Field(description="Monte Carlo mean - kJ std of the final latitude (deg)")
+
+
+class RobustResultRound(ResultModel):
+    """One round of the confirmation loop: a robust design, its Monte Carlo, and the verdict."""
+
+    round: int = Field(description="Round number, from 1")
+    tf_s: Num = Field(description="Final time of the round's design (s)")
+    solver_status: str = Field(description="IPOPT's status of the round's solve")
+    iterations: int = Field(description="IPOPT iterations of the round's solve")
+    agrees: bool = Field(description="Every checked constraint agrees with the Monte Carlo")
+    constraints: RobustResultRoundChecks = Field(description="Promised vs Monte Carlo per constraint")
+    objective_deg: RobustResultPromisedVsMonteCarlo = Field(description="The objective, promised vs Monte Carlo (deg)")
+
+
+class RobustResultConfirmation(ResultModel):
+    """The Monte Carlo confirms the robust design, or corrects kC / the sigma limits and re-solves."""
+
+    agrees: bool = Field(description="The reported design's Monte Carlo agrees with its promises")
+    design_round: int = Field(description="The round whose design is reported")
+    max_rounds: int = Field(description="Rounds allowed")
+    confidence: Num = Field(description="Confidence of the sampling tolerance (0-1)")
+    rounds: list[RobustResultRound] = Field(description="Every round, in order")
+    re_solve_failure: str | None = Field(description="Why a corrected re-solve failed; null if none did")
+
+
 class RobustReentryResult(ResultModel):
     """Result of a ``robust_reentry`` job: robust and deterministic designs and their Monte Carlo."""
 
@@ -197,3 +261,5 @@ class RobustReentryResult(ResultModel):
     final_sigma: RobustResultFinalSigma = Field(description="CADET 1-sigma of the final state")
     deterministic: RobustResultDeterministic = Field(description="The deterministic design")
     monte_carlo: RobustResultMonteCarlo = Field(description="Monte Carlo validation of both designs")
+    confirmation: RobustResultConfirmation | None = Field(
+        None, description="The Monte Carlo confirmation loop (rounds of promised vs Monte Carlo)")
