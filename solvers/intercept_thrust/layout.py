@@ -154,3 +154,35 @@ def refined_layout(layout: Layout, defects_m: np.ndarray, opts: MeshOptions) -> 
         arcs[a] = Arc(arcs[a].kind, arcs[a].segments + add)
         room -= add
     return replace(layout, arcs=tuple(arcs))
+
+
+def without_short_arcs(layout: Layout, min_fraction: float) -> Layout | None:
+    """The layout without arcs shorter than ``min_fraction`` of tf (None if there are none).
+
+    The NLP may drive an arc's duration to its bound 0 (the paper case's first coast ended
+    8 ns long, holding a whole segment of nodes): such an arc is no part of the answer.  Its
+    (tiny) duration goes to a neighbour and neighbours of one kind merge, so the durations
+    still sum to tf and the next solve, warm-started from this one, sees one switch fewer.
+    """
+    sig = np.asarray(layout.sigma, float)
+    short = sig < min_fraction
+    if not short.any() or short.all():
+        return None
+    arcs: list[Arc] = []
+    sigma: list[float] = []
+    carry = 0.0
+    for arc, dur, drop in zip(layout.arcs, sig, short):
+        if drop:
+            if sigma:
+                sigma[-1] += dur
+            else:
+                carry += dur
+            continue
+        if arcs and arcs[-1].kind == arc.kind:
+            arcs[-1] = Arc(arc.kind, arcs[-1].segments + arc.segments)
+            sigma[-1] += dur
+        else:
+            arcs.append(arc)
+            sigma.append(dur + carry)
+            carry = 0.0
+    return replace(layout, arcs=tuple(arcs), sigma=tuple(sigma))

@@ -61,8 +61,10 @@ def plan_trajectory(guess: TrajectoryGuess, problem: FiniteThrustProblem, s: Sca
     edges = np.flatnonzero(np.diff(on.astype(int)))
     cuts = [0.5 * (t[i] + t[i + 1]) for i in edges]
     bounds = [t[0]] + cuts + [t[-1]]
+    # a window's first sample tells whether it burns (cuts lie between samples; its midpoint may
+    # fall in a gap between nodes and pick the next window's sample, which lost a burn at t=0)
     windows = [(bounds[j], bounds[j + 1]) for j in range(len(bounds) - 1)
-               if on[np.searchsorted(t, 0.5 * (bounds[j] + bounds[j + 1]))]]
+               if on[min(np.searchsorted(t, bounds[j]), t.size - 1)]]
     unit = np.where(mag > 1e-9, thr / np.maximum(mag, 1e-300), 0.0)
     unit[:, ~on] = np.nan
 

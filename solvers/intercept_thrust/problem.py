@@ -32,6 +32,7 @@ class MeshOptions:
     max_new_burns: int = 2            # burns the switching function may add
     max_segments: int = 80
     max_iterations: int = 500         # IPOPT iterations per solve
+    min_arc_s: float = 1e-3           # arcs shorter than this are removed and the problem solved again
 
     def __post_init__(self):
         if self.structure not in ("switching", "free_throttle"):

@@ -12,7 +12,7 @@ from solvers.intercept_thrust.collocation import build_nlp, costates, nlp_bounds
 from solvers.intercept_thrust.diagnostics import (
     arc_table, burns_from_throttle, optimality_evidence, segment_defects, verify_controls,
 )
-from solvers.intercept_thrust.layout import layout_for, missing_burn, refined_layout
+from solvers.intercept_thrust.layout import layout_for, missing_burn, refined_layout, without_short_arcs
 from solvers.intercept_thrust.planning import initial_values, plan_impulsive, plan_trajectory, resample
 from solvers.intercept_thrust.problem import (
     FiniteThrustProblem, FiniteThrustSolution, ImpulsiveGuess, TrajectoryGuess, nondimensionalise,
@@ -46,7 +46,8 @@ def solve_finite_thrust(problem: FiniteThrustProblem, *, initial_guess: Impulsiv
     history: list[dict] = []
     verification: dict = {}
     iterations, build_time, solve_time = 0, 0.0, 0.0
-    rounds = 1 + (opts.max_refinements + opts.max_new_burns if opts.refine else 0)
+    # (+2: rounds that only remove arcs the NLP shrank to nothing)
+    rounds = 1 + (opts.max_refinements + opts.max_new_burns if opts.refine else 0) + 2
     new_burns = 0
     best = None
     res = None
@@ -85,7 +86,14 @@ def solve_finite_thrust(problem: FiniteThrustProblem, *, initial_guess: Impulsiv
             break
         lam = costates(layout, res.lam_g)
         best = (res, layout, X, U, tf, verification, lam, i_tf)
-        if not opts.refine or r == rounds - 1:
+        nxt = without_short_arcs(layout, opts.min_arc_s / (tf * s.sc.time_s))
+        if nxt is not None and r < rounds - 1:
+            # a zero-length arc is no part of the answer: drop it and solve again from here
+            entry["next"] = f"arcs shorter than {opts.min_arc_s:g} s removed"
+            X, U = resample(layout, sigma, X, U, tf, nxt, None)
+            layout, sigma = nxt, np.asarray(nxt.sigma)
+            continue
+        if not opts.refine or r >= rounds - 3:
             break
         nxt = None
         if opts.structure == "switching" and new_burns < opts.max_new_burns:

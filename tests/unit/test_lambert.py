@@ -180,3 +180,22 @@ def test_arc_min_radius_hand_cases():
     assert 5000e3 < rmin < 9000e3
     assert rmin == pytest.approx(_dense_min_radius(MU, r2, sol.v1, 2 * np.pi * np.sqrt(a ** 3 / MU) * 0.99),
                                  rel=1e-7)
+
+
+def test_a_case_gives_the_same_bits_wherever_it_sits_in_a_batch():
+    # Strict IEEE arithmetic in the compiled loop (no fastmath): a case's answer must not depend on
+    # its neighbours or its place in the batch (a GA's front followed such last bits).
+    rng = np.random.default_rng(5)
+    n = 257
+    r1 = rng.normal(size=(n, 3)) * 9000e3
+    r2 = rng.normal(size=(n, 3)) * 15000e3
+    tof = rng.uniform(600.0, 40000.0, n)
+    for revs in (0, 1):
+        whole = lambert(MU, r1, r2, tof * (1 + 3 * revs), revolutions=revs)
+        perm = rng.permutation(n)
+        shuffled = lambert(MU, r1[perm], r2[perm], tof[perm] * (1 + 3 * revs), revolutions=revs)
+        assert np.array_equal(whole.v1[perm], shuffled.v1, equal_nan=True)
+        assert np.array_equal(whole.v2[perm], shuffled.v2, equal_nan=True)
+        for k in (0, 1, 100, n - 1):
+            one = lambert(MU, r1[k], r2[k], tof[k] * (1 + 3 * revs), revolutions=revs)
+            assert np.array_equal(one.v1, whole.v1[k], equal_nan=True)
