@@ -6,6 +6,7 @@ problem and the solve.
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -41,30 +42,40 @@ def rhs_numpy(vehicle):
     return rhs
 
 
+@functools.lru_cache(maxsize=8)    # vehicles are frozen dataclasses: the build (~50 ms) once per vehicle
+def _glide_steps(vehicle, *, dt: float, steps: int) -> ca.Function:
+    """``(x0, u) -> X (NX, steps)``: ``steps`` RK4 steps of ``dt`` with constant controls, in one
+    CasADi call (the same arithmetic, in the same order, as a numpy loop over :func:`rhs_numpy`,
+    without ~1,400 Python-level calls)."""
+    xs, us = ca.SX.sym("x", NX), ca.SX.sym("u", NU)
+    f = ca.Function("eom", [xs, us], [dyn.eom(xs, us, vehicle, ca)])
+    k1 = f(xs, us)
+    k2 = f(xs + 0.5 * dt * k1, us)
+    k3 = f(xs + 0.5 * dt * k2, us)
+    k4 = f(xs + dt * k3, us)
+    step = ca.Function("glide_step", [xs, us], [xs + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)])
+    return step.mapaccum("glide", steps)
+
+
 def simulate_constant_controls(problem: ReentryProblem, *, alpha_rad: float, bank_rad: float,
                                t_max: float = 5000.0, dt: float = 5.0) -> InitialGuess:
     """Fixed-step RK4 glide with constant controls until the terminal altitude or speed is reached.
 
     The controls are clipped to the problem's bounds (a capsule's alpha range is far from the
     shuttle's 17 deg), so the guess is a trajectory the problem can fly."""
-    rhs = rhs_numpy(problem.vehicle)
     u = np.array([np.clip(alpha_rad, *problem.alpha_bounds_rad), np.clip(bank_rad, *problem.bank_bounds_rad)])
-    x = np.asarray(problem.initial_state, float)
+    x0 = np.asarray(problem.initial_state, float)
     h_end = problem.terminal.altitude_m if problem.terminal.altitude_m is not None else 0.0
     v_end = problem.terminal.speed_mps if problem.terminal.speed_mps is not None else 0.0
-    ts, xs = [0.0], [x]
-    t = 0.0
-    while t < t_max and x[ALTITUDE] > h_end and x[SPEED] > max(v_end, problem.min_speed_mps):
-        k1 = rhs(x, u)
-        k2 = rhs(x + 0.5 * dt * k1, u)
-        k3 = rhs(x + 0.5 * dt * k2, u)
-        k4 = rhs(x + dt * k3, u)
-        x = x + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-        t += dt
-        ts.append(t)
-        xs.append(x)
-    X = np.array(xs).T
-    return InitialGuess(t=np.array(ts), x=X, u=np.tile(u[:, None], (1, X.shape[1])))
+    ts = [0.0]
+    while ts[-1] < t_max:                 # the times a step-by-step loop would reach
+        ts.append(ts[-1] + dt)
+    X = np.hstack([x0[:, None], np.asarray(_glide_steps(problem.vehicle, dt=dt, steps=len(ts) - 1)(x0, u))])
+    # Stop after the first state at or past the terminal altitude or speed (the loop's test).
+    done = (X[ALTITUDE] <= h_end) | (X[SPEED] <= max(v_end, problem.min_speed_mps)) | ~np.isfinite(X).all(axis=0)
+    n = int(np.argmax(done)) + 1 if done.any() else X.shape[1]
+    X = X[:, :n]
+    return InitialGuess(t=np.array(ts[:n]), x=X, u=np.tile(u[:, None], (1, n)))
 
 
 def linear_guess(problem: ReentryProblem, *, tf: float = 2000.0,
@@ -78,6 +89,7 @@ def linear_guess(problem: ReentryProblem, *, tf: float = 2000.0,
     xf = np.where(np.isnan(xf), default_end, xf)
     s = np.linspace(0.0, 1.0, 11)
     X = x0[:, None] + (xf - x0)[:, None] * s[None, :]
+    alpha_rad, bank_rad = np.clip(alpha_rad, *problem.alpha_bounds_rad), np.clip(bank_rad, *problem.bank_bounds_rad)
     U = np.tile(np.array([[alpha_rad], [bank_rad]]), (1, s.size))
     return InitialGuess(t=s * tf, x=X, u=U)
 

@@ -8,12 +8,8 @@ import math
 import casadi as ca
 import numpy as np
 import pytest
-from fastapi.testclient import TestClient
 
 from app.kinds.reentry_params import ReentryParams
-from app.main import create_app
-from app.migrate import upgrade
-from app.settings import Settings
 from solvers import reentry as rs
 from solvers.common import Outcome
 from solvers.models import reentry_dynamics as dyn
@@ -24,6 +20,7 @@ from solvers.models.atmosphere import Atmosphere
 from solvers.models.heating import SuttonGraves
 from solvers.models.vehicle_data import vehicle_from_dict, vehicle_to_dict
 from solvers.reentry_guess import simulate_constant_controls
+from tests.unit.test_api_contract import client  # noqa: F401 (the API fixture: app on SQLite, no broker)
 
 DEG = math.pi / 180
 
@@ -139,15 +136,7 @@ def test_aero_table_rejects_malformed_tables():
         Atmosphere(kind="table", altitudes_m=(0, 1, 2, 3), densities_kg_m3=(1, 0, 1, 1))
 
 
-# --- the API edge ----------------------------------------------------------------------------
-@pytest.fixture(scope="module")
-def client(tmp_path_factory):
-    url = f"sqlite:///{tmp_path_factory.mktemp('veh') / 'api.db'}"
-    upgrade(url)
-    with TestClient(create_app(Settings(database_url=url, broker_url="redis://127.0.0.1:1/0"))) as c:
-        yield c
-
-
+# --- the API edge (fixture ``client`` of test_api_contract) -----------------------------------
 def test_vehicles_route_lists_the_presets(client):
     listed = {v["name"]: v for v in client.get("/v1/vehicles").json()}
     assert {"shuttle", "msl"} <= set(listed)
