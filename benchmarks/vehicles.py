@@ -11,7 +11,6 @@ cleared); solve and verification: best of ``REPEATS`` from the cache.  Times dep
 from __future__ import annotations
 
 import dataclasses
-import time
 
 import numpy as np
 

@@ -27,8 +27,6 @@ def json_list(values) -> list:
 
 def to_problem(params: ReentryParams):
     """The :class:`solvers.reentry.ReentryProblem` of validated parameters (degrees to radians)."""
-    import dataclasses
-
     from solvers import reentry as rs
 
     vehicle = vehicle_of(params)

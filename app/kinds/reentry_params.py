@@ -12,10 +12,25 @@ from typing import Literal
 from pydantic import Field, ValidationInfo, field_validator, model_validator
 
 from app.kinds.base import StrictModel
-from app.kinds.vehicle_params import (AtmosphereName, PlanetName, ReentryAeroTable, ReentryAtmosphereModel,
-                                      ReentryHeating, ReentryPlanet, VehicleName, has_aero_table)
+from app.kinds.vehicle_params import (
+    AtmosphereName,
+    PlanetName,
+    ReentryAeroTable,
+    ReentryAtmosphereModel,
+    ReentryHeating,
+    ReentryPlanet,
+    VehicleName,
+    has_aero_table,
+)
 from solvers.models import shuttle as sh
-from solvers.models.reentry_state import ALTITUDE, FLIGHT_PATH, HEADING, LATITUDE, LONGITUDE, SPEED
+from solvers.models.reentry_state import (
+    ALTITUDE,
+    FLIGHT_PATH,
+    HEADING,
+    LATITUDE,
+    LONGITUDE,
+    SPEED,
+)
 
 BETTS_HEAT_LIMIT_W_M2 = sh.BETTS_HEAT_LIMIT_W_M2   # 70 BTU/ft^2/s
 PAPER000_TERMINAL_ALTITUDE_M = sh.PAPER000_TERMINAL_ALTITUDE_M

@@ -43,7 +43,7 @@ class ReentryAeroTable(StrictModel):
         return aerodynamics.AeroTable(alpha_deg=self.alpha_deg, mach=self.mach, cl=self.cl, cd=self.cd)
 
     @classmethod
-    def from_solver(cls, t: aerodynamics.AeroTable) -> "ReentryAeroTable":
+    def from_solver(cls, t: aerodynamics.AeroTable) -> ReentryAeroTable:
         return cls(alpha_deg=list(t.alpha_deg), mach=list(t.mach), cl=[list(r) for r in t.cl],
                    cd=[list(r) for r in t.cd])
 
@@ -83,7 +83,7 @@ class ReentryPlanet(StrictModel):
         return dataclasses.replace(vehicles.PLANETS[self.preset], **over)
 
     @classmethod
-    def from_solver(cls, p: planet.Planet) -> "ReentryPlanet":
+    def from_solver(cls, p: planet.Planet) -> ReentryPlanet:
         return cls(preset=p.name, mu_m3_s2=p.mu_m3_s2, radius_m=p.radius_m, omega_rad_s=p.omega_rad_s,
                    j2=p.j2, sutton_graves_k=p.sutton_graves_k)
 
@@ -124,7 +124,7 @@ class ReentryAtmosphereModel(StrictModel):
         return atmosphere.Atmosphere(**d)
 
     @classmethod
-    def from_solver(cls, a: atmosphere.Atmosphere) -> "ReentryAtmosphereModel":
+    def from_solver(cls, a: atmosphere.Atmosphere) -> ReentryAtmosphereModel:
         if a.kind == "exponential":
             return cls(kind="exponential", rho0_kg_m3=a.rho0_kg_m3, scale_height_m=a.scale_height_m,
                        sound_speed_mps=a.sound_speed_mps)

@@ -20,7 +20,7 @@ from solvers.models.atmosphere import Atmosphere
 from solvers.models.heating import SuttonGraves
 from solvers.models.vehicle_data import vehicle_from_dict, vehicle_to_dict
 from solvers.reentry_guess import simulate_constant_controls
-from tests.unit.test_api_contract import client  # noqa: F401 (the API fixture: app on SQLite, no broker)
+from tests.unit import test_api_contract
 
 DEG = math.pi / 180
 
@@ -136,7 +136,8 @@ def test_aero_table_rejects_malformed_tables():
         Atmosphere(kind="table", altitudes_m=(0, 1, 2, 3), densities_kg_m3=(1, 0, 1, 1))
 
 
-# --- the API edge (fixture ``client`` of test_api_contract) -----------------------------------
+# --- the API edge --------------------------------------------------------------------------------
+client = test_api_contract.client     # the API fixture: the app on SQLite, no broker contacted
 def test_vehicles_route_lists_the_presets(client):
     listed = {v["name"]: v for v in client.get("/v1/vehicles").json()}
     assert {"shuttle", "msl"} <= set(listed)
