@@ -110,21 +110,27 @@ def test_vehicle_round_trips_through_json():
 
 @pytest.mark.slow
 def test_mars_entry_solves_and_its_repropagation_meets_the_terminal_conditions():
-    from app.kinds import KINDS, PRESETS
+    import json
+
+    from app.kinds.reentry import SPEC, run
     from app.kinds.reentry_edge import to_problem
-    params = KINDS["reentry"].params_model.model_validate(PRESETS["mars-msl-max-crossrange"].params)
-    problem = to_problem(params)
-    assert problem.vehicle == vehicles.MSL
-    s = rs.solve(problem)
-    assert s.status.outcome is Outcome.OPTIMAL
-    assert s.objective_value / DEG == pytest.approx(1.1005, abs=2e-3)
-    ver = s.verification
-    assert ver is not None and ver.ok
-    xf = ver.x_final
-    assert abs(xf[0] - 10000.0) < 10.0                        # m
-    assert abs(xf[3] - 450.0) < 1.0                           # m/s
-    assert abs(ver.final_difference[2]) / DEG < 0.01          # the crossrange it reports, deg
-    assert np.all(np.abs(ver.final_difference[[1, 4, 5]]) / DEG < 0.01)
+    from tests.support import RecordingContext
+    params = SPEC.params_model.model_validate(next(p for p in SPEC.presets
+                                                   if p.name == "mars-msl-max-crossrange").params)
+    assert to_problem(params).vehicle == vehicles.MSL
+    out = run(params, RecordingContext())
+    assert out.status == "succeeded"
+    res = json.loads(json.dumps(out.result, allow_nan=False))
+    SPEC.result_model.model_validate(res)
+    assert res["solver"]["status"] == "Solve_Succeeded"
+    assert res["objective"]["value"] == pytest.approx(1.1005, abs=2e-3)          # deg of crossrange
+    final, ver = res["final"], res["verification"]
+    assert final["altitude_m"] == pytest.approx(10000.0, abs=1e-6)
+    assert final["speed_mps"] == pytest.approx(450.0, abs=1e-6)
+    # the re-propagated flight ends where the terminal conditions ask: 10 m, 1 m/s, 0.01 deg
+    assert ver["ok"] and abs(ver["final_altitude_diff_m"]) < 10.0 and abs(ver["final_speed_diff_mps"]) < 1.0
+    for angle in ("latitude", "longitude", "flight_path", "heading"):
+        assert abs(ver[f"final_{angle}_diff_deg"]) < 0.01, angle
 
 
 def test_aero_table_rejects_malformed_tables():
