@@ -1,40 +1,106 @@
-"""Betts shuttle reentry: CasADi/IPOPT multiple shooting vs a scipy SLSQP baseline, same run.
+"""Betts shuttle reentry, the whole ``reentry`` job, against Dymos' own shuttle example, same run.
 
-Run ``python -m benchmarks.reentry``.  For each Betts preset and grid (50/100/200 intervals) it
-prints final latitude, tf, IPOPT iterations, build time (cold, then from the solver cache) and
-solve time; every time is also given as a ratio to the baseline: scipy SLSQP on a 20-interval
-multiple-shooting transcription of the same problem (numpy RK4, finite-difference gradients),
-measured in the same process.  Timings depend on machine load.
+Run ``python -m benchmarks.reentry`` (``--intervals 100`` for one grid, ``--skip-dymos``).
+
+Ours: the ``reentry`` kind's ``run`` (parameters to problem, solve, verification, result building)
+on the ``betts-max-crossrange`` preset at 50, 100 and 200 intervals, each grid in a fresh process
+(as a new worker's pool child: the app imported, no solver module yet).  ``cold`` is that process's
+first job (the solver modules' import, the CasADi build, IPOPT, the verification, the result);
+``warm`` the best of three more jobs (solver cached in the process).  Each is split into build /
+IPOPT / verification as the result reports them; the rest is the guess, the result and Python.
+Two ways of evaluating IPOPT's derivatives (``solvers.transcription.jit``):
+
+* ``vm``: CasADi's virtual machine (``TRAJLAB_JIT=off``, the default);
+* ``jit``: the Hessian and Jacobian compiled to C (``TRAJLAB_JIT=sync``) and loaded from the disk
+  cache; the one-time compile of each structure (first process ever) is given on its own line.
+
+Peak RSS is the child's ``ru_maxrss``.
+
+Baseline, the strongest peer that installs: Dymos 1.15.1 (``pip install -e .[bench]``) running its
+own shuttle reentry example (``benchmarks.reentry_dymos``: Gauss-Lobatto, 30 segments of order 3,
+as in the spec's speed anchors) in a fresh process, timed from problem setup to the optimum.  Its
+tests use pyOptSparse's IPOPT/SNOPT, which has no PyPI wheel, so it runs ScipyOptimizeDriver SLSQP,
+Dymos' optimizer without pyOptSparse.  Without Dymos the baseline falls back to scipy SLSQP on a
+20-interval multiple-shooting transcription (finite differences), measured in this process.
+Timings depend on machine load (2 shared cores here): best of the warm runs, one cold run each.
 """
 from __future__ import annotations
 
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
-from scipy.optimize import minimize
 
-from solvers.models import reentry_dynamics as dyn
-from solvers.models import shuttle as sh
-from solvers.reentry import ReentryProblem, simulate_constant_controls, solve
-from solvers.transcription import nlp
+from benchmarks.results import write_results
 
-DEG = sh.DEG
-XS = np.array([1e5 * sh.FT_TO_M, 1, 1, 1e4 * sh.FT_TO_M, 1, 1])
+ROOT = Path(__file__).resolve().parents[1]
+GRIDS = (50, 100, 200)
 
 
-def slsqp_baseline(m: int = 20, substeps: int = 4):
-    """Max crossrange by SLSQP: z = [T/1000, scaled nodes, controls], FD derivatives."""
-    pr = ReentryProblem(intervals=m)
-    g = simulate_constant_controls(pr, alpha_rad=17 * DEG, bank_rad=-60 * DEG)
+# --- a job in a fresh process ---------------------------------------------------------------------
+def child(intervals: int, warm_runs: int = 3) -> dict:
+    """One process: a cold job, then ``warm_runs`` warm ones (printed as JSON by ``--child``)."""
+    from app.kinds.reentry import PRESETS, run
+    from app.kinds.reentry_params import ReentryParams
+    from app.params import deep_merge
+    from benchmarks.memory import BenchContext
+
+    preset = next(p for p in PRESETS if p.name == "betts-max-crossrange")
+    params = ReentryParams.model_validate(deep_merge(preset.params, {"grid": {"intervals": intervals}}))
+
+    def job() -> dict:
+        t0 = time.perf_counter()
+        out = run(params, BenchContext())
+        total = time.perf_counter() - t0
+        res = out.result
+        return {"total_s": total, "build_s": res["solver"]["build_time_s"],
+                "ipopt_s": res["solver"]["solve_time_s"], "verify_s": res["verification"]["time_s"],
+                "iterations": res["solver"]["iterations"], "lat_deg": res["final"]["latitude_deg"],
+                "status": out.status}
+
+    cold = job()
+    warm = min((job() for _ in range(warm_runs)), key=lambda r: r["total_s"])
+    from solvers.transcription import jit
+    return {"intervals": intervals, "cold": cold, "warm": warm, "jit": jit.mode(),
+            "rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
+
+
+def in_fresh_process(args: list[str], env: dict | None = None, timeout: float = 1800) -> dict:
+    out = subprocess.run([sys.executable, *args], capture_output=True, text=True, cwd=ROOT,
+                         env={**os.environ, "PYTHONPATH": str(ROOT), **(env or {})}, timeout=timeout)
+    if out.returncode != 0:
+        raise RuntimeError(f"{' '.join(args)} failed: {out.stderr[-2000:]}")
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+# --- the fallback baseline ------------------------------------------------------------------------
+def slsqp_baseline(m: int = 20, substeps: int = 4) -> dict:
+    """Max crossrange by scipy SLSQP: z = [T/1000, scaled nodes, controls], FD derivatives."""
+    from scipy.optimize import minimize
+
+    from solvers.models import reentry_dynamics as dyn
+    from solvers.models import shuttle as sh
+    from solvers.reentry import ReentryProblem, simulate_constant_controls
+
+    deg = sh.DEG
+    xs = np.array([1e5 * sh.FT_TO_M, 1, 1, 1e4 * sh.FT_TO_M, 1, 1])
+    g = simulate_constant_controls(ReentryProblem(intervals=m), alpha_rad=17 * deg, bank_rad=-60 * deg)
     tau = np.linspace(0, 1, m + 1)
     tf0 = g.t[-1]
     x0 = np.vstack([np.interp(tau, g.t / tf0, r) for r in g.x])
-    u0 = np.tile(np.array([[17 * DEG], [-60 * DEG]]), (1, m + 1))
-    z0 = np.concatenate([[tf0 / 1000], (x0 / XS[:, None]).ravel(), u0.ravel()])
+    u0 = np.tile(np.array([[17 * deg], [-60 * deg]]), (1, m + 1))
+    z0 = np.concatenate([[tf0 / 1000], (x0 / xs[:, None]).ravel(), u0.ravel()])
     n = 6 * (m + 1)
 
     def unpack(z):
-        return z[0] * 1000, z[1:1 + n].reshape(6, m + 1) * XS[:, None], z[1 + n:].reshape(2, m + 1)
+        return z[0] * 1000, z[1:1 + n].reshape(6, m + 1) * xs[:, None], z[1 + n:].reshape(2, m + 1)
 
     def defects(z):
         T, X, U = unpack(z)
@@ -49,49 +115,79 @@ def slsqp_baseline(m: int = 20, substeps: int = 4):
             k3 = dyn.eom(x + 0.5 * h * k2, b, sh.SHUTTLE)
             k4 = dyn.eom(x + h * k3, c, sh.SHUTTLE)
             x = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-        return ((x - X[:, 1:]) / XS[:, None]).ravel()
+        return ((x - X[:, 1:]) / xs[:, None]).ravel()
 
-    x0f = np.array(sh.BETTS_INITIAL_STATE) / XS
+    x0f = np.array(sh.BETTS_INITIAL_STATE) / xs
     xf = np.array([sh.BETTS_TERMINAL["altitude_m"], sh.BETTS_TERMINAL["speed_mps"],
-                   sh.BETTS_TERMINAL["flight_path_rad"]]) / XS[[0, 3, 4]]
-    bounds = [(0.1, 10)] + [(None, None)] * n + \
-        [(-90 * DEG, 90 * DEG)] * (m + 1) + [(-90 * DEG, 1 * DEG)] * (m + 1)
+                   sh.BETTS_TERMINAL["flight_path_rad"]]) / xs[[0, 3, 4]]
+    bounds = [(0.1, 10)] + [(None, None)] * n + [(-90 * deg, 90 * deg)] * (m + 1) + [(-90 * deg, 1 * deg)] * (m + 1)
     cons = [{"type": "eq", "fun": defects},
-            {"type": "eq", "fun": lambda z: unpack(z)[1][:, 0] / XS - x0f},
-            {"type": "eq", "fun": lambda z: (unpack(z)[1][[0, 3, 4], -1]) / XS[[0, 3, 4]] - xf}]
+            {"type": "eq", "fun": lambda z: unpack(z)[1][:, 0] / xs - x0f},
+            {"type": "eq", "fun": lambda z: (unpack(z)[1][[0, 3, 4], -1]) / xs[[0, 3, 4]] - xf}]
     t0 = time.perf_counter()
-    r = minimize(lambda z: -unpack(z)[1][2, -1], z0, method="SLSQP", bounds=bounds,
-                 constraints=cons, options={"maxiter": 300, "ftol": 1e-9})
+    r = minimize(lambda z: -unpack(z)[1][2, -1], z0, method="SLSQP", bounds=bounds, constraints=cons,
+                 options={"maxiter": 300, "ftol": 1e-9})
     el = time.perf_counter() - t0
     T, X, _ = unpack(r.x)
-    return {"lat": X[2, -1] / DEG, "tf": T, "iters": r.nit, "time": el, "status": r.message}
+    return {"name": f"scipy SLSQP, {m} intervals, FD gradients", "total_s": el, "lat_deg": X[2, -1] / deg,
+            "tf_s": T, "iterations": int(r.nit), "rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
 
 
-def main():
-    print("Betts shuttle reentry (timings under load from other engineers' jobs on 2 cores)")
-    base = slsqp_baseline()
-    bt = base["time"]
-    print(f"baseline: scipy SLSQP, 20 intervals, FD gradients: lat {base['lat']:.5f} deg, "
-          f"tf {base['tf']:.2f} s, {base['iters']} iterations, {bt:.2f} s ({base['status']})")
-    hdr = (f"{'preset':<34}{'m':>5}{'lat deg':>11}{'tf s':>10}{'iter':>6}{'build s':>9}"
-           f"{'solve s':>9}{'total s':>9}{'total/base':>11}{'warm s':>8}{'warm/base':>10}")
+def baseline(skip_dymos: bool) -> dict:
+    if not skip_dymos:
+        try:
+            import dymos  # noqa: F401
+        except ImportError:
+            print("Dymos is not installed (pip install -e .[bench]): scipy SLSQP baseline instead")
+        else:
+            d = in_fresh_process(["-m", "benchmarks.reentry_dymos", "30"])
+            d["name"] = "Dymos 1.15.1 shuttle example, Gauss-Lobatto 30x3, ScipyOptimizeDriver SLSQP"
+            return d
+    return slsqp_baseline()
+
+
+# --- the table ------------------------------------------------------------------------------------
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--child", type=int, help=argparse.SUPPRESS)
+    ap.add_argument("--intervals", type=int, nargs="*", default=list(GRIDS))
+    ap.add_argument("--skip-dymos", action="store_true")
+    a = ap.parse_args()
+    if a.child:
+        print(json.dumps(child(a.child)))
+        return
+    print("Betts shuttle reentry, max crossrange: the whole reentry job (run) in a fresh process "
+          "(2 shared cores, other work running: one cold run, best of 3 warm)")
+    base = baseline(a.skip_dymos)
+    bt = base["total_s"]
+    print(f"baseline: {base['name']}: lat {base['lat_deg']:.5f} deg, tf {base['tf_s']:.2f} s, "
+          f"{bt:.2f} s setup+solve, peak RSS {base['rss_mb']:.0f} MB")
+    figures = {"baseline": base, "rows": []}
+    hdr = (f"{'mode':<5}{'m':>5}{'lat deg':>11}{'it':>4}  {'cold s':>7}{'build':>7}{'ipopt':>7}{'verif':>7}"
+           f"{'cold/base':>10}  {'warm s':>7}{'ipopt':>7}{'verif':>7}{'warm/base':>10}{'RSS MB':>8}")
     print(hdr)
     print("-" * len(hdr))
-    for name, q in (("betts-max-crossrange", None),
-                    ("betts-max-crossrange-heat-limited", sh.BETTS_HEAT_LIMIT_W_M2)):
-        for m in (50, 100, 200):
-            nlp.clear_cache()
-            pr = ReentryProblem(intervals=m, max_heat_rate_w_m2=q)
-            t0 = time.perf_counter()
-            s = solve(pr)
-            cold = time.perf_counter() - t0
-            t0 = time.perf_counter()
-            solve(pr)
-            warm = time.perf_counter() - t0
-            st = s.status
-            print(f"{name:<34}{m:>5}{s.objective_value / DEG:>11.5f}{s.tf_s:>10.2f}{st.iterations:>6}"
-                  f"{st.build_time_s:>9.2f}{st.solve_time_s:>9.2f}{cold:>9.2f}{cold / bt:>11.3f}"
-                  f"{warm:>8.2f}{warm / bt:>10.3f}")
+    with tempfile.TemporaryDirectory() as cache:
+        for mode in ("vm", "jit"):
+            env = {"TRAJLAB_JIT": "off" if mode == "vm" else "sync", "TRAJLAB_JIT_CACHE": cache}
+            for m in a.intervals:
+                if mode == "jit":
+                    t0 = time.perf_counter()
+                    first = in_fresh_process(["-m", "benchmarks.reentry", "--child", str(m)], env)
+                    print(f"{'jit':<5}{m:>5}  one-time compile of this structure: first job "
+                          f"{first['cold']['total_s']:.1f} s (build {first['cold']['build_s']:.1f} s), "
+                          f"process {time.perf_counter() - t0:.1f} s")
+                    figures["rows"].append({"mode": "jit-first-compile", **first})
+                r = in_fresh_process(["-m", "benchmarks.reentry", "--child", str(m)], env)
+                c, w = r["cold"], r["warm"]
+                print(f"{mode:<5}{m:>5}{w['lat_deg']:>11.5f}{w['iterations']:>4}  {c['total_s']:>7.3f}"
+                      f"{c['build_s']:>7.3f}{c['ipopt_s']:>7.3f}{c['verify_s']:>7.3f}{c['total_s'] / bt:>10.4f}"
+                      f"  {w['total_s']:>7.3f}{w['ipopt_s']:>7.3f}{w['verify_s']:>7.3f}{w['total_s'] / bt:>10.4f}"
+                      f"{r['rss_mb']:>8.0f}")
+                figures["rows"].append({"mode": mode, **r, "cold_over_baseline": c["total_s"] / bt,
+                                        "warm_over_baseline": w["total_s"] / bt})
+    print(f"targets (100 intervals): whole job warm < 0.5 s, cold < 1 s; baseline RSS {base['rss_mb']:.0f} MB")
+    write_results("reentry", figures)
 
 
 if __name__ == "__main__":

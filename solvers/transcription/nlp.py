@@ -25,6 +25,7 @@ import casadi as ca
 import numpy as np
 
 from solvers.common import Outcome, ProgressFn, SolveStatus, StopFn
+from solvers.transcription import jit
 
 _OPTIMAL = {"Solve_Succeeded", "Solved_To_Acceptable_Level"}
 _INFEASIBLE = {"Infeasible_Problem_Detected"}
@@ -132,10 +133,31 @@ class NLPSolver:
             "error_on_fail": False,
         }
         opts.update(casadi_options or {})
-        t0 = time.perf_counter()
-        self.solver = ca.nlpsol(name, "ipopt", nlp, opts)
-        self.build_time_s = time.perf_counter() - t0
         self._lock = threading.Lock()
+        self._nlp, self._name, self._opts = nlp, name, opts
+        # Compiled derivatives (solvers.transcription.jit): from the disk cache when this
+        # structure was compiled before, else (mode permitting) compiled now or in the background.
+        key = jit.digest(nlp) if jit.mode() != "off" and "p" in nlp and jit.compiler() else None
+        ext = jit.load(key) if key else None
+        self.compiled = ext is not None
+        t0 = time.perf_counter()
+        self.solver = ca.nlpsol(name, "ipopt", nlp, {**opts, **(ext or {})})
+        if key and ext is None:
+            if jit.mode() == "sync":
+                if jit.build(self.solver, key):
+                    self._use_compiled(key)
+            else:
+                jit.compile_async(self.solver, key, lambda: self._use_compiled(key), self._lock)
+        self.build_time_s = time.perf_counter() - t0
+
+    def _use_compiled(self, key: str) -> None:
+        """Swap in the solver whose Hessian and Jacobian are the compiled library's."""
+        ext = jit.load(key)
+        if ext is None:
+            return
+        solver = ca.nlpsol(self._name, "ipopt", self._nlp, {**self._opts, **ext})
+        with self._lock:
+            self.solver, self.compiled = solver, True
 
     def solve(self, *, x0, lbx, ubx, lbg, ubg, p=None, on_progress: ProgressFn | None = None,
               should_stop: StopFn | None = None, progress_span: tuple[float, float] = (0.0, 1.0),
@@ -178,6 +200,7 @@ class NLPSolver:
                 self.hook.handler = None
             solve_time = time.perf_counter() - t0
             stats = self.solver.stats()
+            compiled = self.compiled
         x = np.asarray(sol["x"]).ravel()
         g = np.asarray(sol["g"]).ravel()
         viol_g = np.maximum(np.maximum(lbg - g, g - ubg), 0.0)
@@ -194,7 +217,8 @@ class NLPSolver:
                 iterations=int(stats.get("iter_count", state["iter"])),
                 build_time_s=self.build_time_s, solve_time_s=solve_time,
                 max_constraint_violation=max_viol,
-                details={"worst_constraint_index": int(np.argmax(viol_g)) if viol_g.size else None},
+                details={"worst_constraint_index": int(np.argmax(viol_g)) if viol_g.size else None,
+                         "compiled_derivatives": compiled},
             ),
         )
 

@@ -150,3 +150,20 @@ def test_heat_limited_400_intervals():
     assert s.status.outcome is Outcome.OPTIMAL
     assert s.objective_value / DEG == pytest.approx(30.6255, abs=0.005)
     assert s.tf_s == pytest.approx(2198.67, abs=0.5)
+
+
+def test_simulated_guess_is_the_step_by_step_glide():
+    """The guess's glide runs in one CasADi call; it is the numpy RK4 loop, to the bit."""
+    from solvers.reentry import simulate_constant_controls
+    pr = ReentryProblem()
+    g = simulate_constant_controls(pr, alpha_rad=17 * DEG, bank_rad=-60 * DEG)
+    rhs, u, x, xs = rhs_numpy(sh.SHUTTLE), np.array([17 * DEG, -60 * DEG]), np.array(sh.BETTS_INITIAL_STATE), []
+    while x[0] > pr.terminal.altitude_m and x[3] > pr.terminal.speed_mps:
+        k1 = rhs(x, u)
+        k2 = rhs(x + 0.5 * 5.0 * k1, u)
+        k3 = rhs(x + 0.5 * 5.0 * k2, u)
+        k4 = rhs(x + 5.0 * k3, u)
+        x = x + 5.0 / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        xs.append(x)
+    assert g.x.shape == (6, len(xs) + 1) and np.array_equal(g.x[:, 1:], np.array(xs).T)
+    assert np.array_equal(g.t, 5.0 * np.arange(len(xs) + 1))
