@@ -52,3 +52,18 @@ def test_without_a_compiler_it_falls_back_to_the_vm(cache, monkeypatch):
     monkeypatch.setenv("PATH", "")
     s, r = solve(toy_nlp())
     assert not s.compiled and r.status.ok and not list(cache.glob("*.so"))
+
+
+@pytest.mark.skipif(jit.compiler() is None, reason="no C compiler on PATH")
+def test_background_mode_solves_at_once_then_swaps_in_the_library(cache, monkeypatch):
+    import time
+    monkeypatch.setenv("TRAJLAB_JIT", "background")
+    s, first = solve(toy_nlp(scale=3.0))
+    assert first.status.ok                  # answered without waiting for the compiler
+    deadline = time.monotonic() + 60
+    while not s.compiled and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert s.compiled
+    again = s.solve(x0=[-1.0, 1.0], lbx=[-5, -5], ubx=[5, 5], lbg=[-ca.inf], ubg=[1.5], p=[1.2])
+    assert again.status.details["compiled_derivatives"]
+    np.testing.assert_allclose(again.x, first.x, rtol=0, atol=1e-12)
