@@ -18,7 +18,14 @@ from solvers.models import vehicles
 from solvers.models.aerodynamics import AeroTable, sample_polynomials
 from solvers.models.atmosphere import Atmosphere
 from solvers.models.heating import SuttonGraves
-from solvers.models.vehicle_data import vehicle_from_dict, vehicle_to_dict
+from solvers.models.vehicle_data import (
+    aero_numbers,
+    heating_numbers,
+    model_key,
+    vehicle_from_dict,
+    vehicle_to_dict,
+    with_symbols,
+)
 from solvers.reentry_guess import simulate_constant_controls
 from tests.unit import test_api_contract
 
@@ -100,6 +107,24 @@ def test_log_density_table_is_differentiable():
         fd = (float(f(h0 + 0.5)) - float(f(h0 - 0.5))) / 1.0
         assert float(df(h0)) == pytest.approx(fd, rel=1e-6), h0
         assert float(f(h0)) == pytest.approx(table.density(h0), rel=1e-12)
+
+
+def test_vehicle_numbers_as_nlp_parameters_give_the_same_physics():
+    # the NLP sees mass, area, aero polynomials, scales and the Sutton-Graves numbers as
+    # parameters: a vehicle rebuilt from symbols must evaluate like the numeric one
+    for v in (dataclasses.replace(sh.SHUTTLE, heating=SuttonGraves(nose_radius_m=0.7)), vehicles.MSL):
+        aero, heat = aero_numbers(v), heating_numbers(v)
+        pa, ph = ca.SX.sym("a", len(aero)), ca.SX.sym("q", len(heat))
+        sym = dataclasses.replace(v, **with_symbols(v, pa, ph))
+        xs, us = ca.SX.sym("x", 6), ca.SX.sym("u", 2)
+        f = ca.Function("f", [xs, us, pa, ph], [ca.vertcat(dyn.eom(xs, us, sym, ca), dyn.heat_rate(xs, us, sym, ca))])
+        x = np.array([60000.0, 0.1, 0.2, 5000.0, -0.1, 1.0])
+        u = np.array([-16.0 * DEG, 0.5])
+        want = np.concatenate([dyn.eom(x, u, v), [dyn.heat_rate(x, u, v)]])
+        assert np.allclose(np.asarray(f(x, u, aero, heat)).ravel(), want, rtol=1e-12)
+    # the cache key holds the structure, not the parameters
+    heavier = dataclasses.replace(vehicles.MSL, mass_kg=4000.0, heating=SuttonGraves(nose_radius_m=2.0))
+    assert model_key(heavier) == model_key(vehicles.MSL) != model_key(sh.SHUTTLE)
 
 
 def test_vehicle_round_trips_through_json():
