@@ -20,6 +20,8 @@ with a large miss shows up.  ``cold s`` is one whole call (warm-start propagatio
 IPOPT, re-propagation) with the solver cache empty; ``warm s`` the same call again with the built
 solver taken from the cache.  ``build s`` / ``IPOPT s`` split the cold call.  Ratios are against
 the baseline's cold and warm times measured here.  Timings depend on machine load (2 cores).
+Last, the peak memory (RSS) of a whole intercept job in a fresh process against a bare
+``import numpy, casadi`` (written to ``benchmarks/results/latest.json`` under ``intercept``).
 
 Started from the single impulse, the baseline keeps a single burn (a local optimum); trajlab's
 method adds the short burn at t = 0 that the switching function asks for, which is most of the
@@ -219,5 +221,27 @@ def main() -> None:
               f"(cap, to keep the benchmark near 3 minutes); its row is the unconverged iterate")
 
 
+def job_memory() -> dict:
+    """Peak RSS of a whole intercept job (the kind's default preset, impulsive + finite thrust, in a
+    fresh process as a worker's child runs it), against a bare ``import numpy, casadi`` process:
+    :func:`benchmarks.memory.measure`, the same routine as ``python -m benchmarks.memory``."""
+    import json
+    import sys
+
+    from benchmarks.memory import BASELINE_CODE, measure
+
+    base_mb = min(measure([sys.executable, "-c", BASELINE_CODE], 120)[0] for _ in range(3))
+    peak_mb, out = measure([sys.executable, "-m", "benchmarks.memory", "--child", "intercept"], 1800)
+    r = json.loads(next(line for line in out.splitlines() if line.startswith("RESULT ")).removeprefix("RESULT "))
+    print(f"\njob memory: intercept preset {r['preset']} ({r['status']}, {r['seconds']:.2f} s cold in a fresh "
+          f"process): peak RSS {peak_mb:.0f} MB, {peak_mb / base_mb:.2f}x the {base_mb:.0f} MB of "
+          f'python -c "{BASELINE_CODE}"')
+    return {"job_peak_rss_mb": peak_mb, "baseline_peak_rss_mb": base_mb, "baseline": BASELINE_CODE,
+            "job_rss_ratio": peak_mb / base_mb, "job_cold_s": r["seconds"], "job_status": r["status"]}
+
+
 if __name__ == "__main__":
+    from benchmarks.results import write_results
+
     main()
+    write_results("intercept", job_memory())

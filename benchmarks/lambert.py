@@ -8,6 +8,13 @@ Python in the loop).  The same solver from a Python loop, the usual way a
 scalar library is used, is printed too.  If lamberthub is not installed (it is
 only in the ``bench`` extra), a scipy ``brentq`` on the universal variable z
 (Curtis algorithm 5.2) is the reference; it is always measured, on fewer cases.
+
+pykep is not measured: ``pip install pykep`` (3.0.1, the current PyPI wheel) pins
+``heyoka==7.10.1`` and downgrades the project's ``heyoka==7.13.2``; with the project's
+heyoka, ``import pykep`` fails (``TypeError`` converting a heyoka ``taylor_adaptive``
+from a different heyoka ABI), so it cannot share this venv (tried 2026-11-24).
+
+The figures go to ``benchmarks/results/latest.json`` under ``lambert``.
 """
 from __future__ import annotations
 
@@ -22,6 +29,7 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 from scipy.optimize import brentq  # noqa: E402
 
+from benchmarks.results import write_results  # noqa: E402
 from solvers.astro.j2 import MU_EARTH  # noqa: E402
 from solvers.astro.kepler import propagate, stumpff  # noqa: E402
 from solvers.astro.lambert import lambert  # noqa: E402
@@ -96,7 +104,7 @@ def timed(fn, repeats=REPEATS):
     return best, out
 
 
-def main() -> None:
+def main() -> dict:
     r1, r2, tof = cases(BATCH)
     rows = []  # (name, cases, seconds, extra)
 
@@ -185,9 +193,14 @@ def main() -> None:
     for name, n, t, _ in rows[:2]:
         rate = n / t
         print(f"target >= 3,000,000 solves/s ({name}): {'met' if rate >= 3e6 else 'NOT met'} ({rate:,.0f}/s)")
+    return {"reference": ref_name, "reference_solves_per_s": ref_rate,
+            "solves_per_s_0rev": BATCH / t_vec, "solves_per_s_1rev": BATCH / t_m1,
+            "ratio_0rev_vs_reference": BATCH / t_vec / ref_rate, "ratio_1rev_vs_reference": BATCH / t_m1 / ref_rate,
+            "rows": [{"solver": name, "cases": n, "seconds": t, "solves_per_s": n / t} for name, n, t, _ in rows],
+            "target_solves_per_s": 3e6, "batch": BATCH}
 
 
-def porkchop() -> None:
+def porkchop(ref_rate: float | None = None) -> dict:
     """A 1000 x 1000 porkchop map of paper 003's interception (1e6 Lambert problems per branch)."""
     from dataclasses import replace
 
@@ -200,11 +213,20 @@ def porkchop() -> None:
     big = replace(base, porkchop=PorkchopSettings(t_man_points=1000, t_intercept_points=1000))
     t_all, sol = timed(lambda: solve_impulsive(big), repeats=3)
     pc = sol.porkchop
-    print(f"\nporkchop 1000 x 1000 (paper 003, both branches): {t_all - t_scan:.3f} s on top of the "
-          f"{t_scan:.3f} s scan (target < 1 s: {'met' if t_all - t_scan < 1.0 else 'NOT met'}); "
-          f"minimum {pc.best_delta_v_mps:.2f} m/s")
+    cells = int(np.count_nonzero(pc.t_intercept_s[None, :] > pc.t_man_s[:, None]))
+    solves = 2 * cells
+    base_s = solves / ref_rate if ref_rate else float("nan")
+    print(f"\nporkchop 1000 x 1000 (paper 003, both branches, arcs through the Earth left out): "
+          f"{t_all - t_scan:.3f} s on top of the {t_scan:.3f} s scan (target < 1 s: "
+          f"{'met' if t_all - t_scan < 1.0 else 'NOT met'}); minimum {pc.best_delta_v_mps:.2f} m/s; "
+          f"{solves:,} Lambert problems, which the reference solver alone would take {base_s:.3f} s for "
+          f"(its measured rate; ratio {(t_all - t_scan) / base_s:.2f})")
+    return {"porkchop_1000x1000_s": t_all - t_scan, "porkchop_lambert_problems": solves,
+            "porkchop_reference_lambert_only_s": base_s, "porkchop_target_s": 1.0,
+            "porkchop_best_delta_v_mps": pc.best_delta_v_mps}
 
 
 if __name__ == "__main__":
-    main()
-    porkchop()
+    figures = main()
+    figures.update(porkchop(figures["reference_solves_per_s"]))
+    write_results("lambert", figures)

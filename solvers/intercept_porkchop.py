@@ -3,8 +3,7 @@ time x interception time, the minimum over the Lambert branches (paper 003 spec,
 expect beyond the paper").
 
 Every cell is one Lambert problem per branch, solved in one batched call per branch; arcs
-through the planet are left out like in the scan (:mod:`solvers.intercept_branches`), checked
-only on the cells where they would improve the map.
+through the planet are left out like in the scan (:mod:`solvers.intercept_branches`).
 """
 from __future__ import annotations
 
@@ -64,12 +63,11 @@ def porkchop_map(pc: PorkchopSettings, *, mu: float, t1: float, interceptor, tar
                       low_path=branch.low_path)
         dv = sol.v1 - vm
         d = np.sqrt(np.einsum("ij,ij->i", dv, dv))
-        better = np.flatnonzero(d < sub)           # NaN compares False: unsolved cells stay out
-        if body_radius_m is not None and better.size:
-            rmin = arc_min_radius(mu, rm[better], sol.v1[better], ri[better], sol.v2[better],
-                                  revolutions=branch.revolutions)
-            better = better[rmin >= body_radius_m]
-        sub[better] = d[better]
+        better = d < sub                           # NaN compares False: unsolved cells stay out
+        if body_radius_m is not None:
+            # on every cell: gathering the improving ones first costs more than the check
+            better &= arc_min_radius(mu, rm, sol.v1, ri, sol.v2, revolutions=branch.revolutions) >= body_radius_m
+        np.copyto(sub, d, where=better)
     best = np.full(ok.size, np.nan)
     best[ok] = np.where(np.isfinite(sub), sub, np.nan)
     grid = best.reshape(t_man.size, t_int.size)

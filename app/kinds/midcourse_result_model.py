@@ -66,7 +66,7 @@ class MidcourseResultSettings(ResultModel):
     generations: int = Field(description="NSGA-II generations asked for")
     crossover_prob: Num = Field(description="Crossover probability per mating pair")
     mutation_prob: Num = Field(description="Mutation probability per variable")
-    eliminate_duplicates: bool = Field(description="pymoo's duplicate elimination")
+    eliminate_duplicates: bool = Field(description="Offspring that copy a member were mated again")
     time_bounds_s: list[float] = Field(description="Bounds of the correction times (s)")
     min_spacing_s: Num = Field(description="Minimum spacing between corrections (s)")
     tf_s: Num = Field(description="Time at which the target is reached (s)")

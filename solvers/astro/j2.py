@@ -208,15 +208,22 @@ class J2Propagator:
         bs = self._batch
         ta = _integrator("batch", self.constants, self.tol, bs)
         ta.pars[:] = self.spin_axis[:, None]
+        # A batch steps until its longest lane is done: lanes of similar durations go together
+        # (each lane keeps its own step sizes, so its result does not depend on its lane-mates).
+        order = np.argsort(np.abs(t1 - t0), kind="stable")
         pad = (-n) % bs
         # Padding lanes coast for zero time so they cost nothing and change nothing.
-        s = np.concatenate([states, np.repeat(states[-1:], pad, axis=0)]) if pad else states
-        a = np.concatenate([t0, np.repeat(t0[-1:], pad)]) if pad else t0
-        b = np.concatenate([t1, np.repeat(t0[-1:], pad)]) if pad else t1
+        s, a, b = states[order], t0[order], t1[order]
+        if pad:
+            s = np.concatenate([s, np.repeat(s[-1:], pad, axis=0)])
+            a = np.concatenate([a, np.repeat(a[-1:], pad)])
+            b = np.concatenate([b, np.repeat(a[-1:], pad)])
         out = np.empty_like(s)
         for i in range(0, n + pad, bs):
             ta.set_time(a[i:i + bs])
             ta.state[:] = s[i:i + bs].T
             ta.propagate_until(b[i:i + bs])
             out[i:i + bs] = ta.state.T
-        return out[:n]
+        res = np.empty((n, 6))
+        res[order] = out[:n]
+        return res
