@@ -217,3 +217,32 @@ def test_mirrored_branch_solve_equals_two_explicit_lambert_calls():
     pick = np.argmin(np.linalg.norm(cand, axis=2), axis=0)
     assert ok.all() and len(set(pick)) == 2
     assert np.allclose(dv, cand[pick, np.arange(40)], rtol=0, atol=1e-6)
+
+
+def test_array_nsga2_ranks_and_crowding_match_their_definitions():
+    from solvers.midcourse_nsga2 import crowding, nondominated_ranks, survive
+
+    rng = np.random.default_rng(4)
+    f = np.round(rng.uniform(0, 10, (60, 3)), 0)          # coarse values: ties and exact copies occur
+    f[5] = f[7]
+    rank = nondominated_ranks(f)
+    # brute force: front 0 is the non-dominated set; front r the non-dominated set of what is left
+    left = np.arange(len(f))
+    r = 0
+    while left.size:
+        sub = f[left]
+        dominated = np.array([np.any(np.all(sub <= s, axis=1) & np.any(sub < s, axis=1)) for s in sub])
+        assert set(np.flatnonzero(rank == r)) == set(left[~dominated])
+        left = left[dominated]
+        r += 1
+    crowd = crowding(f, rank)
+    assert crowd[7] == 0.0 or crowd[5] == 0.0              # one of two copies carries no spread
+    for r in np.unique(rank):
+        idx = np.flatnonzero(rank == r)
+        for j in range(3):                                  # a front's extremes are kept first
+            assert np.isinf(crowd[idx[np.argmin(f[idx, j])]]) or np.any(f[idx, j] == f[idx, j].min())
+    keep, kr, kc = survive(f, 25)
+    assert len(keep) == 25 and np.all(np.diff(kr) >= 0)
+    worst = kr.max()
+    assert set(np.flatnonzero(rank < worst)) <= set(keep)   # whole better fronts survive
+    assert kc[kr == worst].min() >= crowd[(rank == worst) & ~np.isin(np.arange(60), keep)].max(initial=0.0)
