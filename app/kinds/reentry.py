@@ -70,8 +70,9 @@ PRESETS = [
            "trim (a capsule flies at trim). Differs from the flight: non-rotating Mars (relative and "
            "inertial speed are the same here), central gravity, the NASA Glenn Mars atmosphere as a "
            "log-density table (not Mars-GRAM), an aero table built to MSL's published trim values "
-           "(not its aerodatabase). Here: 1.1005 deg (65 km) at 100 intervals, tf 287.2 s; the "
-           "re-propagation meets the terminal conditions within 0.02 m and 0.001 m/s.",
+           "(not its aerodatabase). Here: 1.1005 deg (65 km) at 100 intervals, tf 287.2 s (1.10049 / "
+           "1.10050 deg at 50 / 200 intervals); the re-propagation meets the terminal conditions within "
+           "0.02 m and 0.001 m/s at 100 intervals.",
            {"vehicle": {"preset": "msl"}, "objective": "max_crossrange",
             "initial_state": {"altitude_m": 125000.0, "longitude_deg": 0.0, "latitude_deg": 0.0,
                               "speed_mps": 5900.0, "flight_path_deg": -15.5, "heading_deg": 90.0},
