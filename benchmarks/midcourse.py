@@ -192,7 +192,7 @@ def main() -> None:
     print(f"{'quantity':48s} {'baseline':>12s} {'trajlab':>12s} {'ratio':>10s}")
     for name, base, ours in rows:
         print(f"{name:48s} {base:12.4f} {ours:12.4f} {ours / base:10.5f}")
-    print(f"{'  NSGA-II bookkeeping (pymoo + repair), s':48s} {'':12s} {ga_s:12.4f} {ga_s / naive_run_s:10.5f}")
+    print(f"{'  NSGA-II bookkeeping (arrays + repair), s':48s} {'':12s} {ga_s:12.4f} {ga_s / naive_run_s:10.5f}")
     print(f"{'  evaluator setup (integrators, dense coast), s':48s} {'':12s} {setup_s:12.4f} "
           f"{setup_s / naive_run_s:10.5f}")
     print(f"{'paper run as a whole job, warm (run(), best of 3), s':48s} {naive_run_s:12.4f} {job_s:12.4f} "
