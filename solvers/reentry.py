@@ -379,7 +379,9 @@ def _solution(problem, tr, res, build_time, notes, stages, *, ver=None, report=N
         status.details["limit_rounds"] = report.rounds
         notes.append(f"the path limits are enforced at the {problem.path_enforcement} of the NLP; "
                      + report.summary())
-        if not report.held and status.outcome is Outcome.OPTIMAL:
+        if report.cancelled and status.outcome is Outcome.OPTIMAL:
+            status.outcome, status.message = Outcome.CANCELLED, "cancelled during the limit rounds"
+        elif not report.held and status.outcome is Outcome.OPTIMAL:
             status.outcome = Outcome.LIMIT_NOT_HELD
             bad = {q: c for q, c in ver.limits.items() if not c["held"]}
             status.message = ("path limit not held between the nodes: " + "; ".join(

@@ -37,6 +37,7 @@ from typing import Callable
 
 import numpy as np
 
+from solvers.common import Outcome
 from solvers.verification import Verification
 
 
@@ -56,6 +57,7 @@ class LimitReport:
     rounds: list[dict] = field(default_factory=list)       # one per solve: worst excess per quantity
     max_margin: dict[str, float] = field(default_factory=dict)   # deepest tightening per constraint
     tightened_intervals: dict[str, int] = field(default_factory=dict)
+    cancelled: bool = False                                  # should_stop() ended the rounds
 
     def summary(self) -> str:
         n = len(self.rounds) - 1
@@ -110,7 +112,10 @@ def hold_limits(res, ver: Verification, *, limits: list[Limit], intervals: int, 
         if worst <= tolerance:
             report.held = True
             break
-        if k == max_rounds or (should_stop is not None and should_stop()):
+        if should_stop is not None and should_stop():
+            report.cancelled = True
+            break
+        if k == max_rounds:
             break
         for lim in limits:
             e = exc[lim.quantity]
@@ -120,6 +125,7 @@ def hold_limits(res, ver: Verification, *, limits: list[Limit], intervals: int, 
         res = resolve(margins, res)
         solves.append(res)
         if not res.status.ok:
+            report.cancelled = res.status.outcome is Outcome.CANCELLED
             break
         ver = verify(res)
     _, res, ver, used = best
