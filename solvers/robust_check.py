@@ -22,7 +22,8 @@ if not, how the next solve is corrected:
 * **Terminal sigma limits** (h_f, v_f, gamma_f): the Monte Carlo's standard deviation against the
   limit, no tolerance (its standard error, ``1/sqrt(2 (n - 1))`` relative, 0.7% at 10,000, is
   reported).  Correction: the limit the NLP sees becomes ``limit * sigma_CADET / sigma_MC`` (times
-  ``SIGMA_SAFETY``), i.e. tightened by the ratio by which CADET underestimates the spread.
+  ``SIGMA_SAFETY``), i.e. tightened by the ratio by which CADET underestimates the spread; when
+  that ratio exceeds ``MAX_SIGMA_RATIO`` the loop stops (the linearization does not hold there).
 * **Objective** ``mu(lat_f) - kJ sigma(lat_f)``: promised (first-order CADET) and measured are
   reported side by side; it is not a constraint and does not decide the round.
 """
@@ -36,6 +37,7 @@ from solvers.robust_reentry_mc import TERMINAL_INDEX
 
 K_OVERSHOOT = 0.1        # added to the quantile gap when kC is raised
 SIGMA_SAFETY = 0.99      # tightened sigma limits aim 1% below the limit
+MAX_SIGMA_RATIO = 3.0    # Monte Carlo sigma over CADET's beyond which the linearization is not trusted
 _N = NormalDist()
 
 
@@ -117,8 +119,11 @@ def _clip(p: float) -> float:
     return min(max(p, 1e-9), 1.0 - 1e-9)
 
 
-def correct(record: dict, correction: Correction, *, samples: int) -> Correction:
-    """The next round's kC and NLP sigma limits from a round that did not agree."""
+def correct(record: dict, correction: Correction, *, samples: int) -> Correction | None:
+    """The next round's kC and NLP sigma limits from a round that did not agree; None when a
+    failing sigma is more than ``MAX_SIGMA_RATIO`` times CADET's: the design is outside the regime
+    where the first-order covariance means anything, and scaling the limit by that ratio would only
+    ask the NLP for a spread it cannot predict (seen with sigma(gamma_f) 30x CADET's)."""
     k = correction.k_constraint
     limits = dict(correction.sigma_limits)
     for name, c in record["constraints"].items():
@@ -129,13 +134,16 @@ def correct(record: dict, correction: Correction, *, samples: int) -> Correction
             k = k + max(quantile(c["target"]) - quantile(kept), 0.0) + K_OVERSHOOT
         else:
             q = name[len("sigma_"):]
+            if not c["monte_carlo"] <= MAX_SIGMA_RATIO * c["promised"]:
+                return None
             ratio = c["promised"] / c["monte_carlo"] if c["monte_carlo"] > 0 else 1.0
             limits[q] = min(c["limit_in_nlp"], c["limit"] * ratio * SIGMA_SAFETY)
     return Correction(k_constraint=k, sigma_limits=limits)
 
 
-def failure_message(record: dict) -> str:
-    """Names the constraints the Monte Carlo did not confirm, with the shares."""
+def failure_message(record: dict, *, display=None) -> str:
+    """Names the constraints the Monte Carlo did not confirm, with the shares.  ``display(name)``
+    may give ``(label, to_unit)`` for a sigma constraint's quantity (the API edge's names and units)."""
     parts = []
     for name, c in record["constraints"].items():
         if c["agrees"]:
@@ -145,6 +153,8 @@ def failure_message(record: dict) -> str:
                          f"(fine grid), target {100 * c['target']:.3f}% (accepted down to "
                          f"{100 * c['acceptance']:.3f}%), CADET promised {100 * c['promised']:.3f}%")
         else:
-            parts.append(f"{name}: Monte Carlo {c['monte_carlo']:.6g} above the limit {c['limit']:.6g} "
-                         f"(CADET promised {c['promised']:.6g})")
+            q = name[len("sigma_"):]
+            label, unit = display(q) if display else (q, lambda v: v)
+            parts.append(f"sigma of the final {label}: Monte Carlo {unit(c['monte_carlo']):.4g} above the limit "
+                         f"{unit(c['limit']):.4g} (CADET promised {unit(c['promised']):.4g})")
     return "; ".join(parts)

@@ -25,6 +25,8 @@ from app.kinds.reentry_params import BETTS_HEAT_LIMIT_W_M2, ReentryParams, Reent
 from app.kinds.robust_result_model import RobustReentryResult
 from solvers.models.reentry_state import LATITUDE, STATES
 
+STATES_BY_NAME = {c.name: c for c in STATES}
+
 
 class RobustUncertainParameter(StrictModel):
     mean: float = Field(0.0, ge=-0.5, le=0.5, description="Mean of the relative error", examples=[0.01])
@@ -319,6 +321,11 @@ def run(params: RobustReentryParams, ctx: JobContext) -> RunOutcome:
         if record["agrees"] or r == settings.max_rounds - 1:
             break
         correction = rc.correct(record, correction, samples=mcp.samples)
+        if correction is None:
+            resolve_failure = (f"no correction after round {r + 1}: a terminal sigma of the Monte Carlo is more "
+                               f"than {rc.MAX_SIGMA_RATIO:g} times CADET's, outside the first-order regime "
+                               "(lower k or the uncertainty)")
+            break
         corrected = dataclasses.replace(problem, robust=dataclasses.replace(
             problem.robust, k_constraint=correction.k_constraint,
             sigma_limits={**problem.robust.sigma_limits, **correction.sigma_limits}))
@@ -340,7 +347,7 @@ def run(params: RobustReentryParams, ctx: JobContext) -> RunOutcome:
     result["confirmation"] = {
         "agrees": agrees, "design_round": best + 1, "max_rounds": settings.max_rounds,
         "confidence": settings.confidence, "rounds": [_round_block(rec) for rec in rounds],
-        "re_solve_failure": resolve_failure}
+        "stop_reason": resolve_failure}
     do_mc, ro_mc = mc_out["deterministic"], mc_out["robust"]
     heat = rounds[best]["constraints"].get("heat_rate")
     result["notes"] = notes + list(sol.notes) + [
@@ -365,7 +372,8 @@ def run(params: RobustReentryParams, ctx: JobContext) -> RunOutcome:
     if agrees:
         return outcome_from_status(sol.status, result)
     msg = f"the Monte Carlo does not confirm the robust design after {len(rounds)} round(s): " + \
-        rc.failure_message(rounds[best]) + (f"; {resolve_failure}" if resolve_failure else "") + \
+        rc.failure_message(rounds[best], display=lambda q: (STATES_BY_NAME[q].api_name, STATES_BY_NAME[q].to_api)) + \
+        (f"; {resolve_failure}" if resolve_failure else "") + \
         f"; the best design (round {best + 1}) is stored as the result"
     return RunOutcome("failed", result=result, error={"code": "not_robust", "message": msg,
                                                       "details": {"rounds": result["confirmation"]["rounds"]}})
