@@ -15,6 +15,7 @@ from solvers.astro.kepler import propagate
 from solvers.astro.lambert import arc_min_radius, lambert
 from solvers.intercept_branches import Branch
 
+_BLOCK = 32768
 
 @dataclass(frozen=True)
 class PorkchopSettings:
@@ -54,20 +55,25 @@ def porkchop_map(pc: PorkchopSettings, *, mu: float, t1: float, interceptor, tar
     r_i, _ = propagate(mu, target[0], target[1], t_int)
     tof_all = (t_int[None, :] - t_man[:, None]).ravel()
     ok = tof_all > 0.0
-    row = np.repeat(np.arange(t_man.size), t_int.size)[ok]
-    col = np.tile(np.arange(t_int.size), t_man.size)[ok]
-    rm, vm, ri, tof = r_m[row], v_m[row], r_i[col], tof_all[ok]
-    sub = np.full(tof.size, np.inf)
-    for branch in branches:
-        sol = lambert(mu, rm, ri, tof, revolutions=branch.revolutions, prograde=branch.prograde,
-                      low_path=branch.low_path)
-        dv = sol.v1 - vm
-        d = np.sqrt(np.einsum("ij,ij->i", dv, dv))
-        better = d < sub                           # NaN compares False: unsolved cells stay out
-        if body_radius_m is not None:
-            # on every cell: gathering the improving ones first costs more than the check
-            better &= arc_min_radius(mu, rm, sol.v1, ri, sol.v2, revolutions=branch.revolutions) >= body_radius_m
-        np.copyto(sub, d, where=better)
+    cells = np.flatnonzero(ok)
+    sub = np.full(cells.size, np.inf)
+    # blocks of cells small enough for the temporaries to stay in cache (one 1e6-cell block ran
+    # at half the solve rate of 10k-cell blocks)
+    for lo in range(0, cells.size, _BLOCK):
+        blk = cells[lo:lo + _BLOCK]
+        row, col = blk // t_int.size, blk % t_int.size
+        rm, vm, ri, tof = r_m[row], v_m[row], r_i[col], tof_all[blk]
+        best_blk = sub[lo:lo + _BLOCK]
+        for branch in branches:
+            sol = lambert(mu, rm, ri, tof, revolutions=branch.revolutions, prograde=branch.prograde,
+                          low_path=branch.low_path)
+            dv = sol.v1 - vm
+            d = np.sqrt(np.einsum("ij,ij->i", dv, dv))
+            better = d < best_blk                    # NaN compares False: unsolved cells stay out
+            if body_radius_m is not None:
+                better &= arc_min_radius(mu, rm, sol.v1, ri, sol.v2,
+                                         revolutions=branch.revolutions) >= body_radius_m
+            np.copyto(best_blk, d, where=better)
     best = np.full(ok.size, np.nan)
     best[ok] = np.where(np.isfinite(sub), sub, np.nan)
     grid = best.reshape(t_man.size, t_int.size)
