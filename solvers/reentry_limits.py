@@ -14,7 +14,7 @@ Mechanism (chosen over the alternatives for cost and locality):
 3. where an interval overshoots by ``e``, lower that interval's limit by ``e`` (cumulatively, as
    a *bound* of the existing constraints: no rebuild, see
    :meth:`~solvers.transcription.multiple_shooting.Transcription.path_upper_bounds`) and re-solve
-   warm from the previous primal-dual point;
+   from the previous answer (the warm-start solver's small fixed barrier keeps it close);
 4. stop when every limit holds on the dense grid to ``limit_tolerance`` (0.1%), or fail as
    ``limit_not_held`` after ``limit_rounds`` rounds, keeping the best answer as the diagnostic.
 

@@ -307,7 +307,8 @@ class Transcription:
         """``x_lb/x_ub``: (nx, m+1) physical; ``u_lb/u_ub``: (nu,) or (nu, nodes);
         ``guess = (tf, x (nx, m+1), u (nu, nodes))`` physical.  ``path_margins``: see
         :meth:`path_upper_bounds`.  ``warm``: a previous result of this transcription whose
-        multipliers start IPOPT (with its primal point as ``guess``)."""
+        multipliers are handed to IPOPT (with its primal point as ``guess``); IPOPT uses them
+        only when built with ``warm_start_init_point: yes`` in ``ShootingProblem.ipopt``."""
         prob = self.prob
         m = prob.intervals
         nun = self.nu_nodes
