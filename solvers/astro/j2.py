@@ -169,7 +169,9 @@ class J2Propagator:
         import heyoka as hy
 
         self.spin_axis = np.asarray(self.spin_axis, dtype=float)
-        self._batch = int(hy.recommended_simd_size())
+        # two SIMD vectors per batch: half the Python calls per population for the same stepping
+        # work (lanes are sorted by coast length), ~17% faster on the paper run than one vector
+        self._batch = 2 * int(hy.recommended_simd_size())
 
     def warm_up(self) -> None:
         """Compile (or fetch from the cache) both integrators now, e.g. before timing a run."""
