@@ -223,21 +223,15 @@ def main() -> None:
 
 def job_memory() -> dict:
     """Peak RSS of a whole intercept job (the kind's default preset, impulsive + finite thrust, in a
-    fresh process as a worker's child runs it), against a bare ``import numpy, casadi`` process:
-    :func:`benchmarks.memory.measure`, the same routine as ``python -m benchmarks.memory``."""
-    import json
-    import sys
+    fresh process as a worker's child runs it), against a bare ``import numpy, casadi`` process
+    (:func:`benchmarks.job_memory.job_figures`)."""
+    from benchmarks.job_memory import job_figures
 
-    from benchmarks.memory import BASELINE_CODE, measure
-
-    base_mb = min(measure([sys.executable, "-c", BASELINE_CODE], 120)[0] for _ in range(3))
-    peak_mb, out = measure([sys.executable, "-m", "benchmarks.memory", "--child", "intercept"], 1800)
-    r = json.loads(next(line for line in out.splitlines() if line.startswith("RESULT ")).removeprefix("RESULT "))
-    print(f"\njob memory: intercept preset {r['preset']} ({r['status']}, {r['seconds']:.2f} s cold in a fresh "
-          f"process): peak RSS {peak_mb:.0f} MB, {peak_mb / base_mb:.2f}x the {base_mb:.0f} MB of "
-          f'python -c "{BASELINE_CODE}"')
-    return {"job_peak_rss_mb": peak_mb, "baseline_peak_rss_mb": base_mb, "baseline": BASELINE_CODE,
-            "job_rss_ratio": peak_mb / base_mb, "job_cold_s": r["seconds"], "job_status": r["status"]}
+    r = job_figures("intercept")
+    print(f"\njob memory: intercept preset {r['job_preset']} ({r['job_status']}, {r['job_cold_s']:.2f} s cold in a "
+          f"fresh process): peak RSS {r['job_peak_rss_mb']:.0f} MB, {r['job_rss_ratio']:.2f}x the "
+          f"{r['baseline_peak_rss_mb']:.0f} MB of python -c \"{r['baseline']}\"")
+    return r
 
 
 if __name__ == "__main__":

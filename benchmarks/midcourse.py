@@ -228,17 +228,10 @@ def main() -> None:
 
 def job_cold_and_memory() -> dict:
     """The paper run (the kind's first preset) in a fresh process: its wall time and peak RSS, against
-    a bare ``import numpy, casadi`` (:func:`benchmarks.memory.measure`)."""
-    import json
-    import sys
+    a bare ``import numpy, casadi`` (:func:`benchmarks.job_memory.job_figures`)."""
+    from benchmarks.job_memory import job_figures
 
-    from benchmarks.memory import BASELINE_CODE, measure
-
-    base_mb = min(measure([sys.executable, "-c", BASELINE_CODE], 120)[0] for _ in range(3))
-    peak_mb, out = measure([sys.executable, "-m", "benchmarks.memory", "--child", "midcourse"], 900)
-    r = json.loads(next(line for line in out.splitlines() if line.startswith("RESULT ")).removeprefix("RESULT "))
-    return {"job_cold_s": r["seconds"], "job_peak_rss_mb": peak_mb, "baseline_peak_rss_mb": base_mb,
-            "baseline": BASELINE_CODE, "job_rss_ratio": peak_mb / base_mb, "job_status": r["status"]}
+    return job_figures("midcourse", 900)
 
 
 if __name__ == "__main__":
