@@ -168,11 +168,13 @@ def main() -> None:
     # trajlab's paper run as a job: the kind's run() with the preset's parameters, warm (this process
     # has built the integrators above; best of 3) and cold (a fresh process, with peak RSS).
     params = MidcourseParams.model_validate(next(p for p in PRESETS if p.name == "upper-stage-two-corrections").params)
-    job_s = float("inf")
+    job_s = job_cpu_s = float("inf")
     for _ in range(3):
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         out = run(params, _Ctx())
         job_s = min(job_s, time.perf_counter() - t0)
+        # CPU time too: on a shared machine the wall time also counts the other processes' turns
+        job_cpu_s = min(job_cpu_s, time.process_time() - c0)
     cold = job_cold_and_memory()
     res, solver = out.result, out.result["solver"]
     fast_run_s = solver["build_time_s"] + solver["solve_time_s"]
@@ -197,6 +199,8 @@ def main() -> None:
           f"{setup_s / naive_run_s:10.5f}")
     print(f"{'paper run as a whole job, warm (run(), best of 3), s':48s} {naive_run_s:12.4f} {job_s:12.4f} "
           f"{job_s / naive_run_s:10.5f}   (target < 1.5 s: {'met' if job_s < 1.5 else 'NOT met'})")
+    print(f"{'  the same, CPU time of this process, s':48s} {'':12s} {job_cpu_s:12.4f} "
+          f"{job_cpu_s / naive_run_s:10.5f}   (target < 1.5 s: {'met' if job_cpu_s < 1.5 else 'NOT met'})")
     print(f"{'paper run as a whole job, cold (fresh process), s':48s} {naive_run_s:12.4f} {cold['job_cold_s']:12.4f} "
           f"{cold['job_cold_s'] / naive_run_s:10.5f}")
     print(f"{'peak RSS of the cold job, MB (baseline: bare import)':48s} {cold['baseline_peak_rss_mb']:12.1f} "
@@ -219,7 +223,8 @@ def main() -> None:
     write_results("midcourse", {
         "naive_eval_ms": naive_eval_ms, "eval_ms": fast_eval_ms, "naive_paper_run_s_extrapolated": naive_run_s,
         "paper_run_solver_s": fast_run_s, "evaluation_s": solver["evaluation_time_s"], "nsga2_bookkeeping_s": ga_s,
-        "job_warm_s": job_s, "job_warm_ratio_vs_naive": job_s / naive_run_s, "job_target_s": 1.5, **cold,
+        "job_warm_s": job_s, "job_warm_cpu_s": job_cpu_s, "job_warm_ratio_vs_naive": job_s / naive_run_s,
+        "job_target_s": 1.5, **cold,
         "stock_pymoo_nsga2_zero_cost_s": stock_ga_s, "our_nsga2_zero_cost_s": light_ga_s,
         "hypervolume": res["hypervolume"], "front_size": len(front), "agreement_ok": bool(agree)})
     if not agree:
