@@ -9,7 +9,10 @@ fixed interception time ``t1``; delta-v(t_man) = |v_lambert - v_coast|
 (paper sec. 3, "fixed-time interception theorem").  The scan over ``t_man`` is
 one batched Lambert call per branch (direction, revolutions, path); the best
 grid point is then refined with a bounded scalar minimization.  Fuel follows
-the rocket equation ``m0 (1 - exp(-dv / (Isp g0)))``.
+the rocket equation ``m0 (1 - exp(-dv / (Isp g0)))``.  Lambert arcs that pass
+through the planet are left out by default (``ScanSettings.exclude_through_planet``;
+the branches and their delta-v: :mod:`solvers.intercept_branches`; the porkchop
+map: :mod:`solvers.intercept_porkchop`).
 
 The paper uses Battin-Vaughan's Lambert algorithm and reports 1501.73 m/s at
 4328 s; with its printed elements the model gives 2302.48 m/s at 3142.5 s
