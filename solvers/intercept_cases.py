@@ -33,7 +33,8 @@ def is_paper_003(scenario: InterceptScenario) -> bool:
     """Whether ``scenario`` is paper 003's own case (orbits, vehicle, interception time, mu), so
     that the paper's figures may be quoted beside its answer; the standard gravity of the
     rocket equation and the free-final-time settings may differ."""
-    same = replace(scenario, g0_mps2=PAPER_003.g0_mps2, free_final_time=False, tf_bounds_s=PAPER_003.tf_bounds_s)
+    same = replace(scenario, g0_mps2=PAPER_003.g0_mps2, free_final_time=False, tf_bounds_s=PAPER_003.tf_bounds_s,
+                   body_radius_m=PAPER_003.body_radius_m)
     try:
         return bool(same == PAPER_003)
     except ValueError:   # elements given as arrays: not the paper's scalar case

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from solvers.astro.elements import Elements, elements_to_state
-from solvers.astro.j2 import MU_EARTH
+from solvers.astro.j2 import AE_EARTH, MU_EARTH
 from solvers.constants import G0_MPS2
 
 
@@ -30,6 +30,7 @@ class InterceptScenario:
     free_final_time: bool = False     # finite-thrust method only
     tf_bounds_s: tuple[float, float] = (6000.0, 10200.0)
     mu_m3_s2: float = MU_EARTH
+    body_radius_m: float = AE_EARTH   # a trajectory below it passes through the planet
     g0_mps2: float = G0_MPS2          # the paper's fuel figures use 9.8
 
     @property

@@ -67,7 +67,7 @@ def to_problem(params: InterceptParams):
         mass_kg=i.mass_kg, propellant_kg=i.propellant_kg, isp_s=i.isp_s, max_thrust_n=i.max_thrust_n,
         tf_s=params.intercept_time_s, free_final_time=params.free_final_time,
         tf_bounds_s=(params.tf_bounds_s[0], params.tf_bounds_s[1]), mu_m3_s2=params.mu_m3_s2,
-        g0_mps2=params.g0_mps2)
+        g0_mps2=params.g0_mps2, body_radius_m=params.scan.body_radius_m)
     return InterceptProblem(
         scenario=scenario,
         methods=tuple(params.methods),
@@ -130,6 +130,11 @@ def run(params: InterceptParams, ctx: JobContext) -> RunOutcome:
         result["finite_thrust"] = finite_result(sol.finite_thrust, params)
         if paper and not params.free_final_time:
             notes.append(FINITE_NOTE)
+        if (sol.finite_thrust.verification or {}).get("through_planet"):
+            notes.append(f"the finite-thrust trajectory passes through the planet (smallest radius "
+                         f"{sol.finite_thrust.verification['min_radius_m']:.0f} m, below "
+                         f"{params.scan.body_radius_m:.0f} m): the collocation has no altitude limit, so this "
+                         "answer is not flyable")
         if params.free_final_time:
             notes.append("free final time: the fuel is multimodal in tf (the geometry repeats with the "
                          "target's period), so the answer is the best local optimum near the best single "

@@ -138,6 +138,10 @@ class InterceptResultFiniteVerification(ResultModel):
     collocation_propellant_kg: Num = Field(description="Propellant of the collocation solution (kg)")
     integrator: str = Field(description="Integrator and tolerance")
     function_evaluations: int = Field(description="Right-hand-side evaluations")
+    min_radius_m: Num = Field(None, description="Smallest distance of the interceptor from the Earth's centre "
+                              "along the re-propagation (m, sampled 64 times per segment)")
+    through_planet: bool | None = Field(None, description="min_radius_m is below scan.body_radius_m: the "
+                                        "trajectory passes through the planet (the collocation has no such limit)")
 
 
 class InterceptResultOptimalityHistory(ResultModel):

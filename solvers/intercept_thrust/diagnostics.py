@@ -59,12 +59,17 @@ def verify_controls(problem: FiniteThrustProblem, *, s: Scaled, mesh: Mesh, X, U
         return rhs
 
     nfev = 0
+    r_min = float(np.linalg.norm(r_i))
     for k in range(S):
         if b[k + 1] - b[k] < 1e-9:
             continue
-        sol = solve_ivp(rhs_for(k), (b[k], b[k + 1]), y, method="DOP853", rtol=1e-10, atol=1e-13)
+        sol = solve_ivp(rhs_for(k), (b[k], b[k + 1]), y, method="DOP853", rtol=1e-10, atol=1e-13,
+                        dense_output=True)
         y = sol.y[:, -1]
         nfev += sol.nfev
+        # the interceptor's distance from the Earth's centre, sampled densely (a segment is at most
+        # ~1000 s: 64 samples resolve a periapsis passage to a few km)
+        r_min = min(r_min, float(np.min(np.linalg.norm(sol.sol(np.linspace(b[k], b[k + 1], 64))[:3], axis=0))))
     dr = (y[:3] - y[7:10]) * L
     dv = (y[3:6] - y[10:13]) * V
     return {
@@ -75,6 +80,8 @@ def verify_controls(problem: FiniteThrustProblem, *, s: Scaled, mesh: Mesh, X, U
         "collocation_propellant_kg": float((1.0 - X[6, -1]) * problem.scenario.mass_kg),
         "integrator": "DOP853 rtol 1e-10, inertial two-body, both bodies",
         "function_evaluations": int(nfev),
+        "min_radius_m": r_min * L,
+        "through_planet": bool(r_min * L < problem.scenario.body_radius_m),
     }
 
 

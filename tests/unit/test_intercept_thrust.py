@@ -248,3 +248,21 @@ def test_fixed_tf_6000_is_infeasible_not_unconverged():
     assert ft.status.outcome is Outcome.INFEASIBLE, ft.status
     assert "400 kg of propellant" in ft.status.message and "tf = 6000 s" in ft.status.message
     assert sol.status.outcome is Outcome.INFEASIBLE
+
+
+def test_verification_reports_the_smallest_radius_and_the_planet():
+    from tests.preset_results import solve_preset
+
+    _, _, out = solve_preset("long-range-intercept")
+    ver = out.result["finite_thrust"]["verification"]
+    # the paper answer stays above the surface: its lowest point is the target's own orbit region
+    assert ver["through_planet"] is False and 6378137.0 < ver["min_radius_m"] < 6878137.0 + 1.0
+    assert not any("passes through the planet" in n for n in out.result["notes"])
+    # tf = 6000 s with the through-planet arcs kept: the warm start dives through the Earth and so
+    # does the finite-thrust trajectory; the verification says so (and the solve is not converged)
+    from solvers.intercept import solve
+
+    sol = solve(InterceptProblem(replace(PAPER_003, tf_s=6000.0), methods=("impulsive", "finite_thrust"),
+                                 scan=ScanSettings(exclude_through_planet=False)))
+    assert sol.finite_thrust.verification["through_planet"] is True
+    assert sol.finite_thrust.verification["min_radius_m"] < 6378137.0
