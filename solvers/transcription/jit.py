@@ -15,6 +15,9 @@ once per structure and cached by content:
   thread compiles; later jobs of that structure, in this or any process, use the library) or
   ``sync`` (compile before the first solve; benchmarks);
 * ``TRAJLAB_JIT_CACHE`` is the directory (default ``~/.cache/trajlab/jit``);
+* ``TRAJLAB_JIT_MAX_MB`` (default 8) caps the generated C: the robust reentry NLP (39 states)
+  generates 21 MB, whose compile would take minutes and gigabytes; a structure over the cap is
+  marked (``nlp_<key>.skip``) and stays in the virtual machine in every process;
 * without a C compiler on ``PATH`` (``cc``, ``gcc`` or ``clang``) every mode falls back to the
   virtual machine, silently and permanently for the process.
 
@@ -68,6 +71,18 @@ def library(key: str) -> Path:
     return cache_dir() / f"nlp_{key}.so"
 
 
+def skipped(key: str) -> bool:
+    """This structure's C was over ``TRAJLAB_JIT_MAX_MB``: never compiled."""
+    return (cache_dir() / f"nlp_{key}.skip").exists()
+
+
+def max_bytes() -> float:
+    try:
+        return float(os.environ.get("TRAJLAB_JIT_MAX_MB", "8")) * 1e6
+    except ValueError:
+        return 8e6
+
+
 def load(key: str) -> dict | None:
     """nlpsol options ``{"hess_lag": ..., "jac_g": ...}`` from a cached library, or None."""
     path = library(key)
@@ -93,8 +108,12 @@ def build(solver: ca.Function, key: str, lock=None) -> bool:
             for name in COMPILED:
                 gen.add(solver.get_function(name))
             gen.generate(tmp + os.sep)
+        source = Path(tmp) / f"nlp_{key}.c"
+        if source.stat().st_size > max_bytes():
+            (out.parent / f"nlp_{key}.skip").write_text(f"{source.stat().st_size} bytes of C\n")
+            return False
         so = Path(tmp) / out.name
-        res = subprocess.run([cc, *FLAGS, str(Path(tmp) / f"nlp_{key}.c"), "-o", str(so), "-lm"],
+        res = subprocess.run([cc, *FLAGS, str(source), "-o", str(so), "-lm"],
                              capture_output=True, text=True)
         if res.returncode != 0 or not so.exists():
             return False

@@ -142,7 +142,7 @@ class NLPSolver:
         self.compiled = ext is not None
         t0 = time.perf_counter()
         self.solver = ca.nlpsol(name, "ipopt", nlp, {**opts, **(ext or {})})
-        if key and ext is None:
+        if key and ext is None and not jit.skipped(key):
             if jit.mode() == "sync":
                 if jit.build(self.solver, key):
                     self._use_compiled(key)

@@ -67,3 +67,14 @@ def test_background_mode_solves_at_once_then_swaps_in_the_library(cache, monkeyp
     again = s.solve(x0=[-1.0, 1.0], lbx=[-5, -5], ubx=[5, 5], lbg=[-ca.inf], ubg=[1.5], p=[1.2])
     assert again.status.details["compiled_derivatives"]
     np.testing.assert_allclose(again.x, first.x, rtol=0, atol=1e-12)
+
+
+@pytest.mark.skipif(jit.compiler() is None, reason="no C compiler on PATH")
+def test_code_over_the_size_cap_is_never_compiled(cache, monkeypatch):
+    monkeypatch.setenv("TRAJLAB_JIT", "sync")
+    monkeypatch.setenv("TRAJLAB_JIT_MAX_MB", "0.001")     # the toy's C is ~10 kB
+    s, r = solve(toy_nlp(scale=5.0))
+    key = jit.digest(toy_nlp(scale=5.0))
+    assert r.status.ok and not s.compiled and jit.skipped(key) and not jit.library(key).exists()
+    s2, _ = solve(toy_nlp(scale=5.0))          # remembered across solvers (and processes)
+    assert not s2.compiled
