@@ -68,12 +68,20 @@ def child(intervals: int, warm_runs: int = 3) -> dict:
     cold = job()
     warm = min((job() for _ in range(warm_runs)), key=lambda r: r["total_s"])
     from solvers.transcription import jit
-    return {"intervals": intervals, "cold": cold, "warm": warm, "jit": jit.mode(),
-            "rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
+    return {"intervals": intervals, "cold": cold, "warm": warm, "jit": jit.mode(), "rss_mb": peak_rss_mb()}
 
 
-def in_fresh_process(args: list[str], env: dict | None = None, timeout: float = 1800) -> dict:
-    out = subprocess.run([sys.executable, *args], capture_output=True, text=True, cwd=ROOT,
+def peak_rss_mb() -> float:
+    """This process's own high-water mark (VmHWM), not ``ru_maxrss``, which a child inherits from
+    its parent's pages at the fork (see benchmarks/job_memory.py)."""
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1]) / 1024
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def in_fresh_process(args: list[str], env: dict | None = None, timeout: float = 1800, cwd=ROOT) -> dict:
+    out = subprocess.run([sys.executable, *args], capture_output=True, text=True, cwd=cwd,
                          env={**os.environ, "PYTHONPATH": str(ROOT), **(env or {})}, timeout=timeout)
     if out.returncode != 0:
         raise RuntimeError(f"{' '.join(args)} failed: {out.stderr[-2000:]}")
@@ -130,7 +138,7 @@ def slsqp_baseline(m: int = 20, substeps: int = 4) -> dict:
     el, cpu = time.perf_counter() - t0, time.process_time() - c0
     T, X, _ = unpack(r.x)
     return {"name": f"scipy SLSQP, {m} intervals, FD gradients", "total_s": el, "cpu_s": cpu, "lat_deg": X[2, -1] / deg,
-            "tf_s": T, "iterations": int(r.nit), "rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
+            "tf_s": T, "iterations": int(r.nit), "rss_mb": peak_rss_mb()}
 
 
 def baseline(skip_dymos: bool) -> dict:
@@ -140,7 +148,8 @@ def baseline(skip_dymos: bool) -> dict:
         except ImportError:
             print("Dymos is not installed (pip install -e .[bench]): scipy SLSQP baseline instead")
         else:
-            d = in_fresh_process(["-m", "benchmarks.reentry_dymos", "30"])
+            with tempfile.TemporaryDirectory() as tmp:   # OpenMDAO writes its reports into the cwd
+                d = in_fresh_process(["-m", "benchmarks.reentry_dymos", "30"], cwd=tmp)
             d["name"] = "Dymos 1.15.1 shuttle example, Gauss-Lobatto 30x3, ScipyOptimizeDriver SLSQP"
             return d
     return slsqp_baseline()
