@@ -10,9 +10,12 @@ eq. 30/31; velocities are reconstructed with eq. 25.  Near the parabola
 
 The batch is solved by one loop compiled with numba (``cache=True``: compiled
 once per machine, then loaded in ~0.3 s): each case costs a few hundred
-nanoseconds, about 3 million solves/s on one core, 3x the same algorithm in
-lamberthub called from a numba loop and 2.5x our former numpy version with
-masks (``benchmarks/lambert.py`` measures them in one run).  Strict IEEE
+nanoseconds, 3.6 million solves/s on one core with zero revolutions and 2.2
+million with one (4.1x and 2.5x the same algorithm in lamberthub called from a
+numba loop, measured in one run by ``benchmarks/lambert.py`` on a loaded
+machine); the iteration stops one step early once it is in its order-4 regime
+(see ``_X_EARLY``).  :func:`arc_min_radius` gives the smallest radius along
+the arc flown (periapsis or an end point), after the solve.  Strict IEEE
 arithmetic (no ``fastmath``): each case gives the same bits wherever it sits in
 a batch; velocities agree with the numpy version to 3e-10 m/s.
 
