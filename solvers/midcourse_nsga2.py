@@ -61,29 +61,41 @@ def nondominated_ranks(f: np.ndarray, enough: int | None = None) -> np.ndarray:
 
 def crowding(f: np.ndarray, rank: np.ndarray) -> np.ndarray:
     """Crowding distance within each ranked front (inf at a front's extremes, 0 for exact copies:
-    copies of a point add nothing to the front's spread, so only the first keeps a distance)."""
+    copies of a point add nothing to the front's spread, so only the first keeps a distance).
+
+    All fronts at once: per objective, one sort by (front, value); a point's gap is the distance
+    between its neighbours in its front over the front's span (a loop over fronts cost as much
+    as the rest of a generation, the population holding a dozen fronts or more)."""
     n, m = f.shape
     dist = np.zeros(n)
     order = np.lexsort(f.T[::-1])
     same = np.all(f[order[1:]] == f[order[:-1]], axis=1)
     dup = np.zeros(n, bool)
     dup[order[1:][same]] = True                # equal rows always share a front
-    for r in np.unique(rank[rank < n]):
-        uniq = np.flatnonzero((rank == r) & ~dup)
-        if uniq.size <= 2:
-            dist[uniq] = np.inf
-            continue
-        fu = f[uniq]
-        srt = np.argsort(fu, axis=0, kind="stable")
-        col = np.take_along_axis(fu, srt, axis=0)
-        span = col[-1] - col[0]
-        gap = np.empty_like(col)
-        gap[[0, -1]] = np.inf
-        gap[1:-1] = np.where(span > 0, (col[2:] - col[:-2]) / np.where(span > 0, span, 1.0), 0.0)
-        d = np.zeros(uniq.size)
-        for j in range(m):
-            d[srt[:, j]] += gap[:, j]
-        dist[uniq] = d
+    idx = np.flatnonzero((rank < n) & ~dup)
+    if idx.size == 0:
+        return dist
+    r = rank[idx]
+    pos = np.arange(idx.size)
+    d = np.zeros(idx.size)
+    for j in range(m):
+        srt = np.lexsort((f[idx, j], r))
+        v = f[idx[srt], j]
+        fr = r[srt]
+        change = fr[1:] != fr[:-1]
+        first = np.empty(idx.size, bool)
+        last = np.empty(idx.size, bool)
+        first[0], first[1:] = True, change
+        last[-1], last[:-1] = True, change
+        start = np.maximum.accumulate(np.where(first, pos, 0))
+        end = np.minimum.accumulate(np.where(last, pos, idx.size - 1)[::-1])[::-1]
+        span = v[end] - v[start]
+        gap = np.full(idx.size, np.inf)
+        inner = np.flatnonzero(~(first | last))
+        sp = span[inner]
+        gap[inner] = np.where(sp > 0, (v[inner + 1] - v[inner - 1]) / np.where(sp > 0, sp, 1.0), 0.0)
+        d[srt] += gap
+    dist[idx] = d
     return dist
 
 
