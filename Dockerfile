@@ -9,8 +9,11 @@ COPY worker ./worker
 COPY solvers ./solvers
 COPY migrations ./migrations
 RUN pip install --no-cache-dir .
+# The workers compile IPOPT's derivatives to C once per problem structure (TRAJLAB_JIT=background).
+RUN apt-get update && apt-get install -y --no-install-recommends gcc libc6-dev && rm -rf /var/lib/apt/lists/*
 # Run as an unprivileged user that owns nothing it could overwrite (the code stays root's, read-only).
 RUN useradd --system --uid 10001 --no-create-home --shell /usr/sbin/nologin trajlab
+RUN mkdir -p /var/cache/trajlab/jit && chown 10001:10001 /var/cache/trajlab/jit
 USER 10001:10001
 EXPOSE 8000
 CMD ["trajlab", "api", "--host", "0.0.0.0", "--port", "8000"]

@@ -78,7 +78,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
             redis_child.on_restart = lambda: _after_redis_restart(embedded, data_dir, recovery)
         recovery.start_thread()
         children.insert(0, embedded.Supervised(
-            "worker", _worker_command(settings, name="embedded@%h"), env={**os.environ},
+            "worker", _worker_command(settings, name="embedded@%h"), env=_worker_env(data_dir),
             log_path=data_dir / "worker.log").start())
         import uvicorn
 
@@ -94,6 +94,18 @@ def cmd_serve(args: argparse.Namespace) -> int:
         for child in children:  # the worker first, then Redis (SHUTDOWN SAVE: the dump is written)
             child.stop()
     return 0
+
+
+def _worker_env(data_dir: Path) -> dict:
+    """The embedded worker's environment: compiled NLP derivatives on by default.
+
+    A worker serves many jobs of few problem structures, so ``TRAJLAB_JIT=background``
+    (solvers/transcription/jit.py) pays a compile once per structure, off the job's path, and every
+    later job of that structure runs its IPOPT derivatives as C (Betts at 100 intervals: 0.13 s
+    warm instead of 0.54 s); the libraries live under the data directory. An explicit
+    ``TRAJLAB_JIT``/``TRAJLAB_JIT_CACHE`` wins (``off`` where no compile may run).
+    """
+    return {"TRAJLAB_JIT": "background", "TRAJLAB_JIT_CACHE": str(data_dir / "jit"), **os.environ}
 
 
 def _after_redis_restart(embedded, data_dir: Path, recovery) -> None:

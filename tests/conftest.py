@@ -9,6 +9,9 @@ import pytest
 # with auth off unless a test builds its app with auth required
 # (tests/integration/test_security.py). Worker subprocesses inherit this too.
 os.environ.setdefault("TRAJLAB_AUTH", "off")
+# No C compiles in the suite's solves (solvers/transcription/jit.py: `trajlab serve` turns them on
+# for its worker); tests/unit/test_jit.py sets the mode itself.
+os.environ.setdefault("TRAJLAB_JIT", "off")
 
 from app.db import get_database
 from app.migrate import upgrade
