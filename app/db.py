@@ -28,7 +28,7 @@ from sqlalchemy.exc import DisconnectionError
 from sqlalchemy.orm import Session, sessionmaker
 
 SQLITE_BUSY_TIMEOUT_MS = 30_000
-POOL_SIZE = 16  # connections kept; MAX_OVERFLOW more under bursts (the thread pool runs up to 40 requests)
+POOL_SIZE = 16  # connections kept, one per API thread (app.main); MAX_OVERFLOW more for other threads/bursts
 MAX_OVERFLOW = 8
 PING_IDLE_S = 5.0
 
