@@ -17,6 +17,7 @@ Tables (each figure with its ratio to the strongest baseline measured in the sam
 from __future__ import annotations
 
 import argparse
+import json
 import multiprocessing as mp
 import resource
 import time
@@ -24,7 +25,7 @@ import time
 import numpy as np
 
 from benchmarks import robust_baselines as rb
-from benchmarks.results import write_results
+from benchmarks.results import LATEST, write_results
 from solvers import robust_reentry as rr
 from solvers.uncertainty import montecarlo as mc
 
@@ -80,6 +81,8 @@ def main() -> None:
     ap.add_argument("--processes", default="1,2,4")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--skip-job", action="store_true")
+    ap.add_argument("--skip-scale", action="store_true",
+                    help="skip the scale-out; the figures of sections not run are kept from latest.json")
     args = ap.parse_args()
     figures: dict = {}
 
@@ -154,11 +157,14 @@ def main() -> None:
                    mc_heat_kept_fraction=summary["path"]["heat_rate"]["kept_fraction"])
 
     # -- scale-out ------------------------------------------------------------------------
-    procs = [int(p) for p in args.processes.split(",")]
+    procs = [] if args.skip_scale else [int(p) for p in args.processes.split(",")]
     ns = args.scale_samples
     chunk = 25000 if ns >= 200000 else max(ns // 8, 1000)
     print()
-    print(f"scale-out: {ns} samples in chunks of {chunk}, process pool running simulate_chunk (wall s)")
+    if not procs:
+        print("scale-out skipped")
+    else:
+        print(f"scale-out: {ns} samples in chunks of {chunk}, process pool running simulate_chunk (wall s)")
     t1 = None
     for p in procs:
         wall = _scale(spec, ns, p, chunk)
@@ -167,7 +173,11 @@ def main() -> None:
         print(f"  {p} process(es): {wall:8.2f} s   efficiency {100 * eff:5.1f}%   {ns / wall:10.0f} samples/s")
         figures[f"mc_scale_{p}p_s"] = wall
         figures[f"mc_scale_{p}p_efficiency"] = eff
-    figures["mc_scale_samples"] = ns
+    if procs:
+        figures["mc_scale_samples"] = ns
+    if args.skip_job or args.skip_scale:
+        old = json.loads(LATEST.read_text()).get("robust", {}).get("figures", {}) if LATEST.exists() else {}
+        figures = {**old, **figures}
     write_results("robust", figures)
 
 
