@@ -44,6 +44,10 @@ from solvers.transcription.multiple_shooting import PathConstraint, ShootingProb
 from solvers.uncertainty.cadet import CadetSensitivity, CadetSystem
 
 NS = 2   # uncertain parameters: relative errors of (CD, CL)
+# IPOPT restarted from a converged neighbour's primal and dual point (stage 2, the confirmation
+# re-solves): a small barrier parameter and small pushes off the bounds keep that point.
+WARM_IPOPT = {"warm_start_init_point": "yes", "mu_init": 1e-5, "warm_start_bound_push": 1e-6,
+              "warm_start_mult_bound_push": 1e-6}
 # Typical 1-sigma spreads, for scaling the covariance entries to O(1) in the NLP.
 SIGMA_SCALE = (3000.0, 0.005, 0.005, 100.0, 0.01, 0.01)
 S_SCALE = (0.01, 0.01)
@@ -145,6 +149,7 @@ class RobustReentrySolution:
     notes: list[str] = field(default_factory=list)
     objective_unit: str = "rad"
     augmented: np.ndarray | None = None   # packed CADET nodes (nz, m+1): the warm start of resolve()
+    shooting: object | None = None        # the NLP result (multipliers): resolve()'s dual warm start
 
     @property
     def trajectory(self) -> Trajectory:
@@ -289,12 +294,16 @@ def solve(problem: RobustReentryProblem, *, initial_guess=None, on_progress: Pro
     rob = problem.robust
     if rob.continuation not in ("two_stage", "direct"):
         raise ValueError("continuation must be 'two_stage' or 'direct'")
-    tr = Transcription(_robust_problem(problem, cad))
     tr1 = None
     if rob.continuation == "two_stage":
         # Its own (cheap, 18-state) build: the loose tolerance is part of the solver options.
         tr1 = Transcription(_robust_problem(problem, cad, ipopt={"tol": rob.stage1_tol,
                                                                   "acceptable_tol": 10 * rob.stage1_tol}))
+        # Stage 2 starts from stage 1's primal AND dual point (WARM_IPOPT): 18 iterations
+        # instead of 40, same optimum (tf within 1e-5 s).
+        tr = Transcription(_robust_problem(problem, cad, ipopt=WARM_IPOPT))
+    else:
+        tr = Transcription(_robust_problem(problem, cad))
     build_time = 0.0 if tr.was_cached else time.perf_counter() - t_build
     unc = problem.uncertainty
     theta = CadetSystem.theta(unc.s_mean, unc.s_cov)
@@ -311,18 +320,19 @@ def solve(problem: RobustReentryProblem, *, initial_guess=None, on_progress: Pro
                (tr, rob.k_objective, rob.k_constraint, True, (0.6, 0.97), "robust stage 2 (full problem)")]
     if tr1 is None:
         weights = [(tr, rob.k_objective, rob.k_constraint, True, (0.3, 0.97), "robust (full problem, direct)")]
-    res = None
+    res = warm = None
     for trs, kj, kc, limits, span, label in weights:
         x_lb, x_ub, u_lb, u_ub, _, term = _bounds(problem, cad, sigma_limits=limits)
         p = np.concatenate([theta, [kj, kc]])
         res = trs.solve(p=p, x_lb=x_lb, x_ub=x_ub, u_lb=u_lb, u_ub=u_ub, tf_bounds=base.tf_bounds_s,
                        guess=guess, terminal_bounds=term, on_progress=sub(*span), should_stop=should_stop,
-                       expected_iterations=60)
+                       expected_iterations=60, warm=warm if trs is tr else None)
         stages.append({"stage": label, "status": res.status.solver_status,
                        "iterations": res.status.iterations, "solve_time_s": res.status.solve_time_s})
         if not res.status.ok:
             break
         guess = (res.tf, res.x, res.u)
+        warm = res
 
     return _finish(problem, cad, do=do, res=res, stages=stages, build_time=build_time,
                    was_cached=tr.was_cached, do_pred=do_pred, notes=notes)
@@ -337,7 +347,8 @@ def resolve(problem: RobustReentryProblem, previous: RobustReentrySolution, *,
     base, rob = problem.base, problem.robust
     t_build = time.perf_counter()
     cad = _sens(problem)
-    tr = Transcription(_robust_problem(problem, cad))
+    warm = previous.shooting
+    tr = Transcription(_robust_problem(problem, cad, ipopt=WARM_IPOPT if warm is not None else None))
     build_time = 0.0 if tr.was_cached else time.perf_counter() - t_build
     unc = problem.uncertainty
     theta = CadetSystem.theta(unc.s_mean, unc.s_cov)
@@ -345,7 +356,7 @@ def resolve(problem: RobustReentryProblem, previous: RobustReentrySolution, *,
     x_lb, x_ub, u_lb, u_ub, _, term = _bounds(problem, cad, sigma_limits=True)
     res = tr.solve(p=np.concatenate([theta, [rob.k_objective, rob.k_constraint]]), x_lb=x_lb, x_ub=x_ub,
                    u_lb=u_lb, u_ub=u_ub, tf_bounds=base.tf_bounds_s, guess=guess, terminal_bounds=term,
-                   on_progress=progress, should_stop=should_stop, expected_iterations=30)
+                   on_progress=progress, should_stop=should_stop, expected_iterations=30, warm=warm)
     stages = [s for s in previous.stages if s["stage"] == "deterministic"]
     stages.append({"stage": f"robust re-solve (kC = {rob.k_constraint:.3f}, warm start)",
                    "status": res.status.solver_status, "iterations": res.status.iterations,
@@ -385,4 +396,4 @@ def _finish(problem, cad, *, do, res, stages, build_time, was_cached, do_pred, n
     return RobustReentrySolution(
         status=status, deterministic=do, tf_s=res.tf, t=res.t, x=mean, u=res.u, objective_value=obj,
         heat_rate=pred.heat_mean, robust_prediction=pred, deterministic_prediction=do_pred,
-        verification=ver, stages=stages, notes=notes, augmented=np.array(res.x))
+        verification=ver, stages=stages, notes=notes, augmented=np.array(res.x), shooting=res)
