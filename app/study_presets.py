@@ -16,17 +16,17 @@ STUDY_PRESETS: dict[str, dict] = {
     },
     "fuel-vs-intercept-time": {
         "description": "Finite-thrust interception: the least propellant that intercepts by time U, for U from "
-                       "6000 to 12000 s in 25 steps plus the paper's 8080.5 s. Each point lets the interception "
+                       "7000 to 12000 s in 20 steps plus the paper's 8080.5 s. Each point lets the interception "
                        "time vary in [2000 s, U] (free_final_time), so the curve is what a planner reads off and "
                        "never rises with U. Every point starts cold from the kind's maneuver x interception-time "
-                       "map (fanned out over the workers), and a point that fails is retried from a solved "
-                       "neighbour: fuel is multimodal in tf, and a warm start from the neighbour keeps the "
-                       "neighbour's local optimum (a continuation walk gave 290.49 kg, tf = 4527.8 s, at every U), "
-                       "so continuation is used here only to rescue the points a cold start cannot solve (the "
-                       "6000 s end).",
+                       "map (fanned out over the workers); a point that fails is retried from a solved neighbour. "
+                       "The curve starts at 7000 s (386.2 kg of the 400 kg on board): below it no interception "
+                       "that stays outside the Earth suffices. The cheaper answer found there before Lambert arcs "
+                       "through the planet were left out (290.49 kg at tf = 4527.8 s) flew 2,840 km below the "
+                       "surface (smallest radius 3,535 km).",
         "kind": "intercept", "preset": "long-range-intercept",
-        "params": {"free_final_time": True, "tf_bounds_s": [2000.0, 6000.0]},
-        "sweeps": [{"path": "tf_bounds_s.1", "values": sorted({6000.0 + 250.0 * i for i in range(25)} | {8080.5})}],
+        "params": {"free_final_time": True, "tf_bounds_s": [2000.0, 7000.0]},
+        "sweeps": [{"path": "tf_bounds_s.1", "values": sorted({7000.0 + 250.0 * i for i in range(21)} | {8080.5})}],
         "mode": "independent",
     },
     "robust-objective-vs-k": {
