@@ -244,7 +244,8 @@ class RobustResultConfirmation(ResultModel):
     max_rounds: int = Field(description="Rounds allowed")
     confidence: Num = Field(description="Confidence of the sampling tolerance (0-1)")
     rounds: list[RobustResultRound] = Field(description="Every round, in order")
-    re_solve_failure: str | None = Field(description="Why a corrected re-solve failed; null if none did")
+    stop_reason: str | None = Field(description="Why the loop stopped before the Monte Carlo agreed (a corrected "
+                                                "re-solve failed, or no correction applies); null otherwise")
 
 
 class RobustReentryResult(ResultModel):
