@@ -23,32 +23,12 @@ import time
 from pathlib import Path
 
 from benchmarks.results import write_results
+from app.kinds.base import InProcessContext
 
 ROOT = Path(__file__).resolve().parents[1]
 BASELINE_CODE = "import numpy, casadi"
 
 
-class BenchContext:
-    """The smallest :class:`app.kinds.base.JobContext`: progress is counted, nothing is stored, no cancel."""
-
-    job_id = "memory-benchmark"
-
-    def __init__(self) -> None:
-        self.progress_calls = 0
-
-    def progress(self, fraction: float, message: str) -> None:
-        self.progress_calls += 1
-
-    def should_stop(self) -> bool:
-        return False
-
-    def load_result(self, job_id: str) -> dict:
-        raise LookupError(f"job {job_id}: no stored results in the memory benchmark")
-
-    def run_monte_carlo(self, spec: dict, samples: int, seed: int, chunk_size: int | None = None) -> dict:
-        from solvers.uncertainty.montecarlo import run_monte_carlo
-
-        return run_monte_carlo(spec, samples, seed, chunk_size)
 
 
 def _status_kb(field: str) -> int:
@@ -66,7 +46,7 @@ def child(kind: str) -> int:
     spec = KINDS[kind]
     preset = spec.presets[0]
     params = spec.params_model.model_validate(resolve_params(spec, preset.params, None))
-    ctx = BenchContext()
+    ctx = InProcessContext()
     # the kind's solver modules are imported inside run; import them first to split imports from the solve
     import numpy  # noqa: F401
     import casadi  # noqa: F401

@@ -31,6 +31,7 @@ import numpy as np  # noqa: E402
 from scipy.integrate import solve_ivp  # noqa: E402
 
 from app.kinds.midcourse import PRESETS, run  # noqa: E402
+from app.kinds.base import InProcessContext  # noqa: E402
 from benchmarks.results import write_results  # noqa: E402
 from app.kinds.midcourse_params import MidcourseParams  # noqa: E402
 from solvers import midcourse_cases as cases  # noqa: E402
@@ -89,17 +90,6 @@ class NaiveEvaluator:
         return np.array([self.one(row) for row in np.atleast_2d(x)])
 
 
-class _Ctx:
-    job_id = "benchmark"
-
-    def progress(self, fraction, message):
-        pass
-
-    def should_stop(self):
-        return False
-
-    def load_result(self, job_id):
-        raise LookupError(job_id)
 
 
 def cheap_objectives(x):
@@ -171,7 +161,7 @@ def main() -> None:
     job_s = job_cpu_s = float("inf")
     for _ in range(5):
         t0, c0 = time.perf_counter(), time.process_time()
-        out = run(params, _Ctx())
+        out = run(params, InProcessContext())
         job_s = min(job_s, time.perf_counter() - t0)
         # CPU time too: on a shared machine the wall time also counts the other processes' turns
         job_cpu_s = min(job_cpu_s, time.process_time() - c0)

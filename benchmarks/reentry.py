@@ -50,14 +50,14 @@ def child(intervals: int, warm_runs: int = 3) -> dict:
     from app.kinds.reentry import PRESETS, run
     from app.kinds.reentry_params import ReentryParams
     from app.params import deep_merge
-    from benchmarks.memory import BenchContext
+    from app.kinds.base import InProcessContext
 
     preset = next(p for p in PRESETS if p.name == "betts-max-crossrange")
     params = ReentryParams.model_validate(deep_merge(preset.params, {"grid": {"intervals": intervals}}))
 
     def job() -> dict:
         t0, c0 = time.perf_counter(), time.process_time()
-        out = run(params, BenchContext())
+        out = run(params, InProcessContext())
         total, cpu = time.perf_counter() - t0, time.process_time() - c0
         res = out.result
         return {"total_s": total, "cpu_s": cpu, "build_s": res["solver"]["build_time_s"],

@@ -23,6 +23,7 @@ from fastapi.responses import JSONResponse
 from fastapi.testclient import TestClient
 
 from app.kinds import KINDS, PRESETS
+from app.kinds.base import InProcessContext
 from app.params import resolve_params
 from app.results.compact import compact
 from app.results.models import JobResult, result_json
@@ -32,31 +33,13 @@ CASES = {"long-range-intercept": {"porkchop": {"enabled": True}},
          "robust-max-crossrange": {"monte_carlo": {"samples": 2000}}}
 
 
-class _InProcess:
-    """A job context that runs the Monte Carlo in this process (as a worker below its fan-out size)."""
-
-    job_id = "benchmark"
-
-    def progress(self, fraction: float, message: str) -> None:
-        pass
-
-    def should_stop(self) -> bool:
-        return False
-
-    def load_result(self, job_id: str) -> dict:
-        raise LookupError(job_id)
-
-    def run_monte_carlo(self, spec: dict, samples: int, seed: int, chunk_size: int | None = None) -> dict:
-        from solvers.uncertainty.montecarlo import run_monte_carlo
-
-        return run_monte_carlo(spec, samples, seed, chunk_size)
 
 
 def _solve(name: str, overrides: dict) -> tuple[str, dict]:
     preset = PRESETS[name]
     spec = KINDS[preset.kind]
     params = resolve_params(spec, preset.params, overrides)
-    outcome = spec.run(spec.params_model.model_validate(params), _InProcess())
+    outcome = spec.run(spec.params_model.model_validate(params), InProcessContext())
     assert outcome.status == "succeeded", outcome.error
     return preset.kind, outcome.result
 

@@ -24,28 +24,13 @@ import time
 
 import numpy as np
 
+from app.kinds.base import InProcessContext
 from benchmarks import robust_baselines as rb
 from benchmarks.results import LATEST, write_results
 from solvers import robust_reentry as rr
 from solvers.uncertainty import montecarlo as mc
 
 
-class _InProcessContext:
-    """The job context of a worker below its fan-out threshold (progress dropped)."""
-
-    job_id = "bench"
-
-    def progress(self, fraction, message):
-        pass
-
-    def should_stop(self):
-        return False
-
-    def load_result(self, job_id):
-        raise LookupError(job_id)
-
-    def run_monte_carlo(self, spec, samples, seed, chunk_size=None):
-        return mc.run_monte_carlo(spec, samples, seed, chunk_size)
 
 
 def _cpu(fn, repeat=1):
@@ -117,7 +102,7 @@ def main() -> None:
 
         params = kind.RobustReentryParams.model_validate({"monte_carlo": {"samples": args.samples}})
         t0 = time.perf_counter()
-        out = kind.run(params, _InProcessContext())
+        out = kind.run(params, InProcessContext())
         job = time.perf_counter() - t0
         rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
         conf = out.result["confirmation"]

@@ -51,6 +51,39 @@ class JobContext(Protocol):
         """
 
 
+class InProcessContext:
+    """A :class:`JobContext` without a service: a job run in this process (benchmarks, notebooks, tests).
+
+    Progress is recorded in ``messages``; ``stored`` holds results that warm starts may load;
+    ``should_stop`` turns True from the ``stop_after``-th poll on (None: never); the Monte Carlo
+    runs here, as a worker runs it below its fan-out threshold.
+    """
+
+    def __init__(self, stored: dict | None = None, stop_after: int | None = None, *, job_id: str = "local"):
+        self.job_id = job_id
+        self.messages: list[tuple[float, str]] = []
+        self.stored = stored or {}
+        self.stop_after = stop_after
+        self.polls = 0
+
+    def progress(self, fraction: float, message: str) -> None:
+        self.messages.append((fraction, message))
+
+    def should_stop(self) -> bool:
+        self.polls += 1
+        return self.stop_after is not None and self.polls >= self.stop_after
+
+    def load_result(self, job_id: str) -> dict:
+        if job_id not in self.stored:
+            raise LookupError(f"job {job_id} not found or not succeeded")
+        return self.stored[job_id]
+
+    def run_monte_carlo(self, spec: dict, samples: int, seed: int, chunk_size: int | None = None) -> dict:
+        from solvers.uncertainty.montecarlo import run_monte_carlo
+
+        return run_monte_carlo(spec, samples, seed, chunk_size)
+
+
 class JobFailure(Exception):
     """Raised by ``run`` for an expected, user-facing failure (bad warm-start id,
     data that validates but cannot be solved).  ``code`` is one of the API's
