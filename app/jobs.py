@@ -125,12 +125,6 @@ def create_job(db: Database, *, kind: str, params: dict, label: str | None, pres
     return job, True
 
 
-def find_idempotent(db: Database, idempotency_key: str, *, owner: str | None) -> Job | None:
-    """The job this owner already submitted with ``idempotency_key``, if any."""
-    with db.read() as s:
-        return s.scalar(select(Job).where(Job.idempotency_key == idempotency_key, Job.owner == owner))
-
-
 def active_jobs(session: Session, owner: str | None) -> list:
     """The owner's queued and running jobs (what quotas count: rows of ``status``, ``kind``, ``params``),
     read in the caller's transaction; bounded by the per-owner limits."""
