@@ -3,27 +3,40 @@
 Izzo's algorithm (D. Izzo, "Revisiting Lambert's problem", Celest. Mech. Dyn.
 Astr. 121, 2015): the problem is reduced to the non-dimensional time of
 flight ``T(x)`` on the single parameter ``x`` (eq. 18-20), whose root is found
-with third-order Householder iterations (eq. 30) from the initial guesses of
-eq. 30/31; velocities are reconstructed with eq. 25.  Near the parabola
-(``|x - 1| < 0.01``) ``T(x)`` is evaluated with Battin's hypergeometric series
-(eq. 20) because Lancaster's closed form cancels catastrophically there.
+with third-order Householder iterations (eq. 30); velocities are reconstructed
+with eq. 25.  Near the parabola (``|x - 1| < 0.01``) ``T(x)`` is evaluated with
+Battin's hypergeometric series (eq. 20) because Lancaster's closed form cancels
+catastrophically there.
+
+Initial guesses: for zero revolutions Izzo's eq. 30.  For ``m > 0`` revolutions
+not eq. 31 (whose guesses are 0.07-0.5 from the root, three Householder steps
+and more), but the tof inversion of ``T = (m pi + F(x)) / u^3`` (``u^2 = 1 - x^2``,
+F the bounded part of eq. 18) with ``F/u^3`` frozen at its limit on the branch's
+asymptote, 2/3 (1 - lam^3) as x -> 1; on the left branch, one further
+correction by the series of ``F/u^3``.  Where the time of flight is below T(0),
+near the minimum time, from the two roots of ``T_min + T'' (x - x_min)^2 / 2``,
+the minimum being needed there anyway to decide whether a solution exists.
+These are within ~1e-2 of the root (median 4e-3): two Householder steps for 90%
+of the one-revolution cases.  The minimum time is found by Halley from the root
+of the linearized ``dT/dx = 0`` (two steps for most cases, four before).
 
 The batch is solved by one loop compiled with numba (``cache=True``: compiled
 once per machine, then loaded in ~0.3 s): each case costs a few hundred
-nanoseconds, 3.6 million solves/s on one core with zero revolutions and 2.2
-million with one (4.1x and 2.5x the same algorithm in lamberthub called from a
-numba loop, measured in one run by ``benchmarks/lambert.py`` on a loaded
-machine); the iteration stops one step early once it is in its order-4 regime
+nanoseconds, about 3.5 million solves/s on one core with zero revolutions and
+3.4 million with one on a quiet machine (``benchmarks/lambert.py`` measures
+them against the same algorithm in lamberthub called from a numba loop, in one
+run); the iteration stops one step early once it is in its order-4 regime
 (see ``_X_EARLY``).  :func:`arc_min_radius` gives the smallest radius along
 the arc flown (periapsis or an end point), after the solve.  Strict IEEE
 arithmetic (no ``fastmath``): each case gives the same bits wherever it sits in
-a batch; velocities agree with the numpy version to 3e-10 m/s.
+a batch; velocities agree with the numpy version to 3e-10 m/s, and the
+multi-revolution ones with lamberthub's to 2e-14 of the speed.
 
 Conventions (as in Izzo/pykep): the transfer is *prograde* when the angular
 momentum of the transfer has a positive z component.  For ``revolutions > 0``
 two solutions exist when the time of flight exceeds the minimum for that
 number of revolutions; ``low_path=True`` selects the one with the larger
-``x`` (the right branch of eq. 31), ``low_path=False`` the other, following
+``x`` (the right branch), ``low_path=False`` the other, following
 poliastro/lamberthub's ``lowpath`` flag.  Where no solution exists the case is
 ``converged=False`` with NaN velocities.
 """
@@ -146,20 +159,44 @@ def _householder(t, x, lam, m):
 
 
 @njit(cache=True, error_model="numpy")
-def _tmin(lam, m):
-    """Minimum non-dimensional time of flight for m revolutions (Halley on dT/dx = 0)."""
-    x = 0.0
-    t = math.acos(lam) + lam * math.sqrt(1.0 - lam * lam) + m * math.pi
+def _tmin(lam, m, t0m):
+    """Minimum non-dimensional time of flight for m revolutions, by Halley on dT/dx = 0:
+    ``(T_min, x_min, T'')``, T'' at the last iterate but one (for the initial guesses near T_min).
+
+    ``t0m`` is T(0).  The start is the root of the first-order model of dT/dx = 0 about x = 0,
+    ``3 T x - 2 + 2 lam^3 x / z = 0`` with T and z frozen at x = 0 (the lam^3 term only where it
+    pulls the root toward 0, as it does for lam -> 1): within ~1e-2 of x_min for most lam, where
+    x = 0 was 0.15/m away and, for lam near -1, sent the iteration to a wrong point.
+    """
+    x = 2.0 / (3.0 * t0m + max(0.0, 2.0 * lam * lam * lam / math.sqrt(1.0 - lam * lam)))
+    t = _tof(x, lam, m)
+    d2 = 1.0
+    prev = 1.0
     for _ in range(_MAX_ITER_TMIN):
         d1, d2, d3 = _dtof(x, t, lam)
         step = d1 * d2 / (d2 * d2 - d1 * d3 / 2.0) if d1 != 0.0 else 0.0
         x -= step
         t = _tof(x, lam, m)
-        # T is stationary here, so an x within 1e-7 (Halley: cubic, the next step would be ~1e-20)
-        # gives T to ~1e-14, enough to decide whether a time of flight is feasible
-        if not abs(step) > 1e-7:
+        s = abs(step)
+        # T is stationary here, so an x within 1e-7 gives T to ~1e-14, enough to decide whether a
+        # time of flight is feasible.  Halley converges cubically: a step below 1e-3 |x| that is
+        # also small against the one before (s^3 < 1e-14 prev^2, the fast regime) leaves x within
+        # ~1e-14 |x| and ends the iteration a step earlier (scaled by |x|: x_min -> 0 as lam -> 1).
+        if not s > 1e-7 or not (s > 1e-3 * abs(x) or s * s * s > 1e-14 * prev * prev):
             break
-    return t
+        prev = s
+    return t, x, d2
+
+
+@njit(cache=True, error_model="numpy")
+def _phi(s2):
+    """(asin(s) - s sqrt(1 - s^2)) / s^3 by its series in s^2 to s^6 (2/3 2F1(1/2, 3/2; 5/2; s^2)).
+
+    With ``u^2 = 1 - x^2`` the bounded part of T (eq. 18) is ``F(x) = u^3 (phi(u^2) - lam^3
+    phi(lam^2 u^2))`` for x >= 0 and ``pi - u^3 (phi(u^2) + lam^3 phi(lam^2 u^2))`` for x <= 0;
+    the truncation (0.13 low at u^2 = 0.9) only costs a little of an initial guess's accuracy.
+    """
+    return 2.0 / 3.0 + s2 * (0.2 + s2 * (3.0 / 28.0 + s2 * (5.0 / 72.0)))
 
 
 @njit(cache=True, error_model="numpy")
@@ -203,15 +240,31 @@ def _solve(mu, r1, r2, tof, m, prograde, low_path, v1, v2, iters):
             else:
                 x0 = (t / t00) ** (math.log(2.0) / math.log(t1 / t00)) - 1.0
         else:
-            t0m = math.acos(lam) + lam * math.sqrt(1.0 - lam2) + m * math.pi
-            if t < t0m and t < _tmin(lam, m):
-                continue  # shorter than the minimum time for m revolutions: no solution
-            # Izzo eq. 31: x0l from a, x0r from b, and (q - 1) / (q + 1) increases with q, so
-            # the larger of the two guesses is the one with the larger base: one pow, not two
-            a = (m * math.pi + math.pi) / (8.0 * t)
-            b = (8.0 * t) / (m * math.pi)
-            q = (max(a, b) if low_path else min(a, b)) ** (2.0 / 3.0)
-            x0 = (q - 1.0) / (q + 1.0)
+            t0m = math.acos(lam) + lam * math.sqrt(1.0 - lam2) + m * math.pi   # T(0)
+            if t < t0m:
+                # near T_min, where T(x) ~ T_min + T'' (x - x_min)^2 / 2: the two roots either side
+                tm, xm, d2 = _tmin(lam, m, t0m)
+                if t < tm:
+                    continue  # shorter than the minimum time for m revolutions: no solution
+                dx = math.sqrt(2.0 * (t - tm) / d2)
+                x0 = xm + dx if low_path else xm - dx
+            elif low_path:
+                # T = (m pi + F(x)) / u^3 with u = sqrt(1 - x^2) and F/u^3 -> 2/3 (1 - lam^3) as x -> 1:
+                # with F/u^3 frozen at that limit, u^2 = (m pi / (T - 2/3 (1 - lam^3)))^(2/3).  (The
+                # correction of the left branch saves only 0.08 steps here and costs more than that.)
+                u2 = (m * math.pi / (t - 2.0 / 3.0 * (1.0 - lam2 * lam))) ** (2.0 / 3.0)
+                x0 = math.sqrt(1.0 - min(u2, 1.0))
+            else:
+                # the left branch, x <= 0 here: T = ((m + 1) pi - G(x)) / u^3 where G/u^3 = phi(u^2) +
+                # lam^3 phi(lam^2 u^2) grows from 2/3 (1 + lam^3) at u = 0 (x = -1) to pi - T(0) + m pi
+                # at u = 1.  Frozen at u = 0 it gives u2; one correction with the series of phi at
+                # u2 (r^(2/3) by its series in d, |d| < 0.3) takes the guess from ~5e-2 to ~1e-2 of x.
+                hlim = 2.0 / 3.0 * (1.0 + lam2 * lam)
+                u2 = min(1.0, ((m + 1) * math.pi / (t + hlim)) ** (2.0 / 3.0))
+                hh = _phi(u2) + lam2 * lam * _phi(lam2 * u2)
+                d = (hh - hlim) / (t + hh)
+                u2 *= 1.0 - d * (2.0 / 3.0 + d * (1.0 / 9.0 + d * (4.0 / 81.0)))
+                x0 = -math.sqrt(1.0 - min(u2, 1.0))
         x, it, ok = _householder(t, x0, lam, m)
         iters[k] = it
         if not ok or (m > 0 and not abs(x) < 1.0):  # multi-revolution solutions are ellipses
