@@ -215,7 +215,8 @@ def _robust_problem(problem: RobustReentryProblem, cad: CadetSensitivity, *, ipo
         path=(PathConstraint("robust_heat_rate", heat, size=2, where="substeps"),),
         # A warm start: IPOPT's adaptive barrier jumped to mu = 1e9 on the first step and
         # never recovered (the pitfall of the spec); a small monotone barrier converges.
-        ipopt={"mu_strategy": "monotone", "mu_init": 1e-3, **base.ipopt, **(ipopt or {})})
+        ipopt={"mu_strategy": "monotone", "mu_init": 1e-3, **base.ipopt, **(ipopt or {})},
+        block_derivatives=True)
 
 
 def _bounds(problem: RobustReentryProblem, cad: CadetSensitivity, *, sigma_limits: bool):

@@ -15,9 +15,12 @@ once per structure and cached by content:
   thread compiles; later jobs of that structure, in this or any process, use the library) or
   ``sync`` (compile before the first solve; benchmarks);
 * ``TRAJLAB_JIT_CACHE`` is the directory (default ``~/.cache/trajlab/jit``);
-* ``TRAJLAB_JIT_MAX_MB`` (default 8) caps the generated C: the robust reentry NLP (39 states)
+* ``TRAJLAB_JIT_MAX_MB`` (default 8) caps the generated C: the robust reentry NLP as a whole
   generates 21 MB, whose compile would take minutes and gigabytes; a structure over the cap is
-  marked (``nlp_<key>.skip``) and stays in the virtual machine in every process;
+  marked (``nlp_<key>.skip``) and stays in the virtual machine in every process.  The robust
+  transcription therefore compiles its per-interval derivative blocks instead
+  (:mod:`solvers.transcription.blocks`: 4.6 MB of C, about 15 s and 0.7 GB for gcc -Og), keyed
+  by the blocks' own content (:func:`digest_functions`);
 * without a C compiler on ``PATH`` (``cc``, ``gcc`` or ``clang``) every mode falls back to the
   virtual machine, silently and permanently for the process.
 
@@ -39,7 +42,7 @@ COMPILED = ("nlp_hess_l", "nlp_jac_g")          # the functions that cost: see t
 FLAGS = ("-Og", "-fPIC", "-shared")
 _OPTION = {"nlp_hess_l": "hess_lag", "nlp_jac_g": "jac_g"}
 _LOCK = threading.Lock()
-_PENDING: set[str] = set()
+_PENDING: dict[str, list] = {}   # key -> done() callbacks of the solvers waiting for it
 
 
 def mode() -> str:
@@ -94,9 +97,40 @@ def load(key: str) -> dict | None:
         return None
 
 
+def digest_functions(fns: dict) -> str:
+    """Content key of named functions compiled together (per-block derivatives,
+    :mod:`solvers.transcription.blocks`)."""
+    h = hashlib.sha256()
+    for name in sorted(fns):
+        h.update(name.encode())
+        h.update(fns[name].serialize().encode())
+    h.update(f"casadi {ca.__version__} {' '.join(FLAGS)}".encode())
+    return h.hexdigest()[:32]
+
+
+def load_functions(key: str, names) -> dict | None:
+    """``{name: external}`` from a cached library of named functions, or None."""
+    path = library(key)
+    if not path.exists():
+        return None
+    try:
+        return {n: ca.external(n, str(path)) for n in names}
+    except RuntimeError:
+        return None
+
+
 def build(solver: ca.Function, key: str, lock=None) -> bool:
     """Generate C for ``solver``'s Hessian and Jacobian and compile it into the cache (atomic).
     ``lock``: held while reading ``solver`` (not while compiling), so no solve runs meanwhile."""
+    return _compile(lambda: [solver.get_function(name) for name in COMPILED], key, lock)
+
+
+def build_functions(fns: dict, key: str, lock=None) -> bool:
+    """Compile the named functions ``fns`` into one cached library (atomic)."""
+    return _compile(lambda: list(fns.values()), key, lock)
+
+
+def _compile(functions, key: str, lock=None) -> bool:
     cc = compiler()
     if cc is None:
         return False
@@ -105,8 +139,8 @@ def build(solver: ca.Function, key: str, lock=None) -> bool:
     with tempfile.TemporaryDirectory(dir=out.parent) as tmp:
         with lock or threading.Lock():
             gen = ca.CodeGenerator(f"nlp_{key}.c", {"with_header": False})
-            for name in COMPILED:
-                gen.add(solver.get_function(name))
+            for fn in functions():
+                gen.add(fn)
             gen.generate(tmp + os.sep)
         source = Path(tmp) / f"nlp_{key}.c"
         if source.stat().st_size > max_bytes():
@@ -121,20 +155,25 @@ def build(solver: ca.Function, key: str, lock=None) -> bool:
     return True
 
 
-def compile_async(solver: ca.Function, key: str, done, lock=None) -> None:
+def compile_async(solver: ca.Function | None, key: str, done, lock=None, *, fns: dict | None = None) -> None:
     """Compile in a daemon thread (once per key per process) and call ``done()`` when the
-    library is in the cache."""
+    library is in the cache: ``solver``'s derivatives, or the named functions ``fns``.  Solvers
+    that share a key (the robust stages share their blocks) all get their ``done()``."""
     with _LOCK:
         if key in _PENDING:
+            _PENDING[key].append(done)
             return
-        _PENDING.add(key)
+        _PENDING[key] = [done]
 
     def work():
+        ok = False
         try:
-            if build(solver, key, lock):
-                done()
+            ok = build_functions(fns, key, lock) if fns is not None else build(solver, key, lock)
         finally:
             with _LOCK:
-                _PENDING.discard(key)
+                callbacks = _PENDING.pop(key, [])
+        if ok:
+            for cb in callbacks:
+                cb()
 
     threading.Thread(target=work, name=f"jit-{key[:8]}", daemon=True).start()

@@ -32,6 +32,7 @@ import casadi as ca
 import numpy as np
 
 from solvers.common import ProgressFn, StopFn
+from solvers.transcription.blocks import BlockDerivatives
 from solvers.transcription.nlp import NLPResult, NLPSolver, cached_solver
 
 SymFn = Callable[..., ca.SX]
@@ -81,6 +82,10 @@ class ShootingProblem:
     terminal: SymFn | None = None         # (xf, p) -> column of extra terminal constraints
     n_terminal: int = 0
     ipopt: dict = field(default_factory=dict)
+    # IPOPT's Hessian and constraint Jacobian assembled from per-interval SX blocks
+    # (solvers.transcription.blocks) instead of CasADi's AD of the whole graph: cheaper in the
+    # virtual machine and small enough to compile where the whole NLP's C is not.
+    block_derivatives: bool = False
 
     def cache_key(self) -> tuple:
         path = tuple((c.name, c.size, c.where, c.integral) for c in self.path)
@@ -89,7 +94,7 @@ class ShootingProblem:
                 float(self.t_scale), self.intervals, self.control, self.substeps,
                 self.mayer is not None, self.lagrange is not None, float(self.objective_scale),
                 path, float(self.integral_tol), self.n_terminal,
-                tuple(sorted((k, str(v)) for k, v in self.ipopt.items())))
+                tuple(sorted((k, str(v)) for k, v in self.ipopt.items())), self.block_derivatives)
 
 
 def control_nodes(intervals: int, control: str) -> int:
@@ -239,9 +244,33 @@ class Transcription:
         if prob.lagrange is not None:
             J = J + ca.sum2(lag)
         nlp = {"x": z, "p": p, "f": J / prob.objective_scale, "g": ca.vertcat(*g)}
-        solver = NLPSolver(nlp, name="multiple_shooting", ipopt=prob.ipopt)
+        blocks = self._blocks(interval, layout) if prob.block_derivatives else None
+        solver = NLPSolver(nlp, name="multiple_shooting", ipopt=prob.ipopt, blocks=blocks)
         solver.g_layout = layout
         return solver
+
+    def _blocks(self, interval: ca.Function, layout: list) -> BlockDerivatives:
+        """The per-block functions of this structure in scaled variables (see blocks.py)."""
+        prob = self.prob
+        nx, nu = prob.nx, prob.nu
+        xs = ca.DM(np.asarray(prob.x_scale, float))
+        us = ca.DM(np.asarray(prob.u_scale, float))
+        s = ca.SX.sym("s", nx)
+        su = ca.SX.sym("u", nu)
+        tz = ca.SX.sym("T")
+        sp = ca.SX.sym("p", prob.n_params)
+        node_path = [c for c in prob.path if not c.integral]
+        node = None
+        if node_path:
+            node = ca.Function("node_path", [s, su, sp],
+                               [ca.vertcat(*[c.fn(s * xs, su * us, sp) for c in node_path])])
+        mayer = prob.mayer(s * xs, tz * prob.t_scale, sp) if prob.mayer is not None else ca.SX(0)
+        term = prob.terminal(s * xs, sp) if prob.terminal is not None else ca.SX.zeros(0)
+        final = ca.Function("final", [s, tz, sp], [mayer, term])
+        return BlockDerivatives(nx=nx, nu=nu, n_params=prob.n_params, intervals=prob.intervals,
+                                control=prob.control, interval=interval, node=node, final=final,
+                                has_lagrange=prob.lagrange is not None,
+                                objective_scale=prob.objective_scale, layout=layout)
 
     # -- solving ------------------------------------------------------------------------
     def pack(self, tf: float, x: np.ndarray, u: np.ndarray) -> np.ndarray:

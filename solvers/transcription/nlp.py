@@ -120,7 +120,9 @@ class NLPSolver:
     """A built IPOPT solver plus its iteration hook. Thread-safe per instance."""
 
     def __init__(self, nlp: dict, *, name: str = "nlp", ipopt: dict | None = None,
-                 casadi_options: dict | None = None):
+                 casadi_options: dict | None = None, blocks=None):
+        """``blocks``: a :class:`solvers.transcription.blocks.BlockDerivatives` whose assembled
+        Hessian and Jacobian replace CasADi's (and whose block functions are what is compiled)."""
         nx = int(nlp["x"].numel())
         ng = int(nlp["g"].numel())
         np_ = int(nlp["p"].numel()) if "p" in nlp else 0
@@ -134,25 +136,37 @@ class NLPSolver:
         }
         opts.update(casadi_options or {})
         self._lock = threading.Lock()
-        self._nlp, self._name, self._opts = nlp, name, opts
+        self._nlp, self._name, self._opts, self._blocks = nlp, name, opts, blocks
         # Compiled derivatives (solvers.transcription.jit): from the disk cache when this
         # structure was compiled before, else (mode permitting) compiled now or in the background.
-        key = jit.digest(nlp) if jit.mode() != "off" and "p" in nlp and jit.compiler() else None
-        ext = jit.load(key) if key else None
+        key = None
+        if jit.mode() != "off" and "p" in nlp and jit.compiler():
+            key = jit.digest(nlp) if blocks is None else jit.digest_functions(blocks.functions)
+        ext = self._compiled_options(key) if key else None
         self.compiled = ext is not None
         t0 = time.perf_counter()
+        if ext is None and blocks is not None:
+            ext = blocks.nlpsol_options(nlp)         # the blocks in the virtual machine
         self.solver = ca.nlpsol(name, "ipopt", nlp, {**opts, **(ext or {})})
-        if key and ext is None and not jit.skipped(key):
+        if key and not self.compiled and not jit.skipped(key):
+            fns = None if blocks is None else blocks.functions
             if jit.mode() == "sync":
-                if jit.build(self.solver, key):
+                if jit.build(self.solver, key) if fns is None else jit.build_functions(fns, key):
                     self._use_compiled(key)
             else:
-                jit.compile_async(self.solver, key, lambda: self._use_compiled(key), self._lock)
+                jit.compile_async(self.solver, key, lambda: self._use_compiled(key), self._lock, fns=fns)
         self.build_time_s = time.perf_counter() - t0
+
+    def _compiled_options(self, key: str) -> dict | None:
+        """nlpsol options with the compiled library of ``key``, or None when it is not cached."""
+        if self._blocks is None:
+            return jit.load(key)
+        impl = jit.load_functions(key, self._blocks.functions)
+        return None if impl is None else self._blocks.nlpsol_options(self._nlp, impl)
 
     def _use_compiled(self, key: str) -> None:
         """Swap in the solver whose Hessian and Jacobian are the compiled library's."""
-        ext = jit.load(key)
+        ext = self._compiled_options(key)
         if ext is None:
             return
         solver = ca.nlpsol(self._name, "ipopt", self._nlp, {**self._opts, **ext})
