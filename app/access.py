@@ -32,7 +32,7 @@ class Principal:
     owner: str | None
     admin: bool = False
 
-    def may_see(self, job: Job) -> bool:
+    def may_see(self, job: Job | jobs.JobRow) -> bool:
         return self.admin or (job.owner is not None and job.owner == self.owner)
 
     @property
@@ -84,11 +84,11 @@ def not_found(job_id: str) -> HTTPException:
     return HTTPException(status_code=404, detail=f"job {job_id} not found")
 
 
-def visible_job(db: Database, job_id: str, principal: Principal) -> Job:
-    """The job if this caller may see it; otherwise a 404 (never a 403: existence is not disclosed)."""
+def visible_job(db: Database, job_id: str, principal: Principal) -> jobs.JobRow:
+    """The job's columns if this caller may see it; otherwise a 404 (never a 403: existence is not disclosed)."""
     if not _JOB_ID.fullmatch(job_id):  # not an id we issue (e.g. a NUL, which PostgreSQL refuses): no query
         raise not_found(job_id[:40])
-    job = jobs.get_job(db, job_id)
+    job = jobs.get_job_row(db, job_id)
     if job is None or not principal.may_see(job):
         raise not_found(job_id)
     return job

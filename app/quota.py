@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 
+from sqlalchemy import Connection
 from sqlalchemy.orm import Session
 
 from app import jobs
@@ -104,7 +105,7 @@ def check_quota(db: Database, settings: Settings, *, owner: str | None, cost: fl
         check_quota_in(s, settings, owner=owner, cost=cost)
 
 
-def check_quota_in(session: Session, settings: Settings, *, owner: str | None, cost: float) -> None:
+def check_quota_in(session: Session | Connection, settings: Settings, *, owner: str | None, cost: float) -> None:
     """:func:`check_quota` inside the caller's transaction (``jobs.create_job``'s ``admit``)."""
     if owner is None:
         return
