@@ -133,9 +133,16 @@ def cmd_api(args: argparse.Namespace) -> int:
     from app.settings import get_settings
 
     settings = get_settings()
-    # uvloop and httptools (uvicorn[standard]) named, not left to "auto"; TRAJLAB_API_WORKERS processes
-    uvicorn.run("app.main:create_app", factory=True, host=args.host, port=args.port, loop="uvloop",
-                http="httptools", workers=settings.api_workers, access_log=settings.access_log)
+    # uvloop and httptools (uvicorn[standard]) named, not left to "auto"; TRAJLAB_API_WORKERS processes,
+    # each on a listening socket of its own (app.serving: a shared one left one process with most connections)
+    options = dict(factory=True, host=args.host, port=args.port, loop="uvloop", http="httptools",
+                   workers=settings.api_workers, access_log=settings.access_log)
+    if settings.api_workers == 1:
+        uvicorn.run("app.main:create_app", **options)
+        return 0
+    from app.serving import run_processes
+
+    run_processes(uvicorn.Config("app.main:create_app", **options))
     return 0
 
 

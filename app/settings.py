@@ -35,7 +35,10 @@ class Settings(BaseSettings):
     )
     data_dir: Path = Field(default=DEFAULT_DATA_DIR, description="Embedded mode: SQLite file, Redis socket, logs")
     worker_concurrency: int = Field(default=1, ge=1, description="Solver processes per worker")
-    api_workers: int = Field(default=1, ge=1, description="`trajlab api` processes (uvicorn workers) on one port")
+    # One process serves at most one core (the GIL): on PostgreSQL a single process spent its core on
+    # Python while PostgreSQL and the clients had the other (benchmarks/api_load.py, 2 cores).  Two, not
+    # one per core: each keeps a pool of up to 24 connections of PostgreSQL's 100 by default.
+    api_workers: int = Field(default=2, ge=1, description="`trajlab api` processes (uvicorn workers) on one port")
     access_log: bool = Field(default=False, description="`trajlab api` writes one log line per request (uvicorn's "
                                                          "access log; it costs about a tenth of a request's CPU)")
 
