@@ -21,16 +21,17 @@ of the one-revolution cases.  The minimum time is found by Halley from the root
 of the linearized ``dT/dx = 0`` (two steps for most cases, four before).
 
 The batch is solved by one loop compiled with numba (``cache=True``: compiled
-once per machine, then loaded in ~0.3 s): each case costs a few hundred
-nanoseconds, about 3.5 million solves/s on one core with zero revolutions and
-3.4 million with one on a quiet machine (``benchmarks/lambert.py`` measures
-them against the same algorithm in lamberthub called from a numba loop, in one
-run); the iteration stops one step early once it is in its order-4 regime
-(see ``_X_EARLY``).  :func:`arc_min_radius` gives the smallest radius along
-the arc flown (periapsis or an end point), after the solve.  Strict IEEE
-arithmetic (no ``fastmath``): each case gives the same bits wherever it sits in
-a batch; velocities agree with the numpy version to 3e-10 m/s, and the
-multi-revolution ones with lamberthub's to 2e-14 of the speed.
+once per machine, then loaded in ~0.3 s): each case costs under 300
+nanoseconds, 3.8 million solves/s on one core with zero revolutions and 3.7
+million with one (batches of 10,000; best CPU time on a loaded machine, by
+``benchmarks/lambert.py``): 2.9x lamberthub's izzo2015 with zero revolutions
+called from a numba loop, and 3.1x it on the same one-revolution cases,
+measured in the same run.  The iteration stops one step early once it
+is in its order-4 regime (see ``_X_EARLY``).  :func:`arc_min_radius` gives the
+smallest radius along the arc flown (periapsis or an end point), after the
+solve.  Strict IEEE arithmetic (no ``fastmath``): each case gives the same bits
+wherever it sits in a batch; velocities agree with the numpy version to 3e-10
+m/s, and the multi-revolution ones with lamberthub's to 2e-14 of the speed.
 
 Conventions (as in Izzo/pykep): the transfer is *prograde* when the angular
 momentum of the transfer has a positive z component.  For ``revolutions > 0``
