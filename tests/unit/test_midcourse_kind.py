@@ -114,31 +114,46 @@ def test_monte_carlo_optimize_reports_both_statistics_on_the_front():
         assert p["percentile"]["position_error_m"] > 0.0
 
 
-def test_paper_run_front_is_the_one_stored_before_the_ask_tell_loop():
-    # Paper 002's preset (100 x 500, seed 1): the same seed must give the same front.  A genetic
-    # search follows roundoff and its random stream, so its front is a regression guard, not a
-    # reference number.  Recorded when NSGA-II moved to our own ask/tell loop, when Lambert moved
-    # to a compiled loop, and again (issues 15 and 16) when min_spacing_s became 60 s by default
-    # (the first point had two corrections 0.16 ms apart, [536.4008, 536.4010] s; now 60 s apart),
-    # the Lambert iteration got faster (velocities within 2e-13 relative) and NSGA-II moved from
-    # pymoo's object populations to arrays (solvers/midcourse_nsga2.py: the same operators, another
-    # random stream).  Hypervolume: 0.76079 before; 0.76707 with the spacing on pymoo; 0.74322 now
-    # (seeds 2 and 3: 0.7755 and 0.7650 here, against pymoo's 0.7869 and 0.7494; seed 1 on pymoo: 0.7671).
+_PAPER_RUN_CHILD = """
+import json, sys
+from tests.unit.test_midcourse_kind import preset, run, RecordingContext
+res = run(preset("upper-stage-two-corrections"), RecordingContext()).result
+front = res["pareto_front"]
+json.dump({"hypervolume": res["hypervolume"],
+           "points": [[p["times_s"], p["delta_v_mps"], p["position_error_m"], p["velocity_error_mps"]]
+                      for p in front]}, sys.stdout)
+"""
+
+
+def test_paper_run_front_is_the_same_in_another_process_and_as_good_as_the_seeds_spread():
+    # Paper 002's preset (100 x 500, seed 1).  A genetic search follows roundoff and its random
+    # stream, so its front is not a reference number (Table 3's are, in test_midcourse.py), and its
+    # last bits are the machine's: numba and heyoka compile for the host CPU, so the same commit
+    # gave hypervolume 0.74322 on one machine and 0.77044 on another.  Two things hold anywhere:
+    # 1. the same seed gives the same front bit for bit in another process (a case's bits once
+    #    depended on its place in a vectorized batch: e2da9a7);
+    # 2. the front is as good as NSGA-II's spread over seeds: seeds 1-3 here and on pymoo's own
+    #    implementation gave 0.729-0.787 (commit 011a588 and issue 16's Lambert change).
+    import subprocess
+    import sys
+    from pathlib import Path
+
     out = run(preset("upper-stage-two-corrections"), RecordingContext())
     res = out.result
     assert out.status == "succeeded" and res["generations"] == 500 and res["evaluations"] == 50000
     front = res["pareto_front"]
     assert len(front) == 100
-    assert res["hypervolume"] == pytest.approx(0.7432193597445531, rel=1e-12)
-    stored = [  # first, middle and last point: times (s), delta-v (m/s), position error (m), velocity error (m/s)
-        ([530.4742133373405, 590.4742133373405], 20.278793002046466, 24242.79665442468, 0.9872935907408907),
-        ([2804.902995503132, 12799.999992742834], 101.52479627135351, 0.11747978001573921, 50.465795332243744),
-        ([1059.141376621856, 12799.999992957204], 391.7453345187907, 0.11727147297653163, 361.87414972341736),
-    ]
-    for p, (times, dv, pos, vel) in zip((front[0], front[50], front[-1]), stored):
-        assert p["times_s"] == pytest.approx(times, rel=1e-12)
-        assert (p["delta_v_mps"], p["position_error_m"], p["velocity_error_mps"]) == pytest.approx((dv, pos, vel),
-                                                                                                  rel=1e-9)
+    assert 0.72 <= res["hypervolume"] <= 0.80
+    # the cheapest point costs about 20 m/s with errors of tens of km; the most accurate lands
+    # within a metre at a few hundred m/s
+    assert front[0]["delta_v_mps"] < 25.0
+    assert min(p["position_error_m"] for p in front) < 1.0
+    child = subprocess.run([sys.executable, "-c", _PAPER_RUN_CHILD], capture_output=True, text=True,
+                           cwd=Path(__file__).resolve().parents[2], timeout=300, check=True)
+    other = json.loads(child.stdout)
+    assert other["hypervolume"] == res["hypervolume"]
+    assert other["points"] == [[p["times_s"], p["delta_v_mps"], p["position_error_m"], p["velocity_error_mps"]]
+                               for p in front]
     # the default spacing holds on the whole front
     assert min(p["times_s"][1] - p["times_s"][0] for p in front) >= 60.0 - 1e-9
     assert SPEC.key_numbers(res) == {"front_size": 100, "hypervolume": res["hypervolume"],
