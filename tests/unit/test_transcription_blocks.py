@@ -5,6 +5,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
+from solvers.transcription import jit
 from solvers.transcription.multiple_shooting import PathConstraint, ShootingProblem, Transcription
 
 
@@ -38,3 +39,48 @@ def test_block_hessian_and_jacobian_equal_casadi_ad(control):
         np.testing.assert_allclose(np.array(ca.DM(a)), np.array(ca.DM(b)), rtol=1e-12, atol=1e-12)
         if name == "nlp_hess_l":
             assert ca.DM(a).sparsity().is_triu()
+
+
+def _solve(tr: Transcription):
+    m = tr.prob.intervals
+    nx, nu = tr.prob.nx, tr.prob.nu
+    return tr.solve(p=[0.3, 4.0], x_lb=np.full((nx, m + 1), -5.0), x_ub=np.full((nx, m + 1), 5.0),
+                    u_lb=[-1.0, -1.0], u_ub=[1.0, 1.0], tf_bounds=(5.0, 20.0),
+                    guess=(10.0, np.full((nx, m + 1), 0.5), np.zeros((nu, tr.nu_nodes))),
+                    terminal_bounds=([-np.inf] * 2, [1.0] * 2))
+
+
+@pytest.mark.skipif(jit.compiler() is None, reason="no C compiler on PATH")
+def test_compiled_blocks_give_the_vm_answer_and_are_shared(tmp_path, monkeypatch):
+    monkeypatch.setenv("TRAJLAB_JIT_CACHE", str(tmp_path))
+    monkeypatch.setenv("TRAJLAB_JIT", "off")
+    prob = dataclasses.replace(toy("linear"), block_derivatives=True, ipopt={"tol": 1e-9})
+    vm = _solve(Transcription(dataclasses.replace(prob, key=("blocks-toy-vm",))))
+    assert vm.status.ok and not vm.status.details["compiled_derivatives"]
+    monkeypatch.setenv("TRAJLAB_JIT", "sync")
+    prob = dataclasses.replace(prob, key=("blocks-toy-jit",))
+    a = Transcription(prob)
+    # A second structure with the same blocks (other IPOPT options: the robust stages) loads
+    # the first one's library instead of compiling again.
+    b = Transcription(dataclasses.replace(prob, ipopt={"tol": 1e-10}))
+    assert a.solver.compiled and b.solver.compiled and len(list(tmp_path.glob("nlp_*.so"))) == 1
+    res = _solve(a)
+    assert res.status.ok and res.status.details["compiled_derivatives"]
+    assert res.status.iterations == vm.status.iterations
+    np.testing.assert_allclose(res.x, vm.x, rtol=0, atol=1e-9)
+
+
+@pytest.mark.skipif(jit.compiler() is None, reason="no C compiler on PATH")
+def test_background_compile_swaps_in_every_solver_sharing_the_blocks(tmp_path, monkeypatch):
+    import time
+    monkeypatch.setenv("TRAJLAB_JIT_CACHE", str(tmp_path))
+    monkeypatch.setenv("TRAJLAB_JIT", "background")
+    prob = dataclasses.replace(toy("constant"), block_derivatives=True, key=("blocks-toy-bg",))
+    a = Transcription(dataclasses.replace(prob, ipopt={"tol": 1e-9}))
+    b = Transcription(dataclasses.replace(prob, ipopt={"tol": 1e-10}))
+    assert _solve(a).status.ok                  # answered in the VM while gcc runs
+    deadline = time.monotonic() + 120
+    while not (a.solver.compiled and b.solver.compiled) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert a.solver.compiled and b.solver.compiled
+    assert _solve(b).status.details["compiled_derivatives"]
