@@ -71,3 +71,26 @@ def test_chunking_does_not_change_bits_and_unsupported_vehicles_fall_back():
                                                  "vehicle": {**spec["model_params"]["vehicle"],
                                                              "atmosphere": dataclasses.asdict(us76.atmosphere)}})
     assert model.kernel is None
+
+
+def test_a_sample_does_not_depend_on_its_lane_or_block():
+    # the kernel runs blocks of rk.LANES samples, the last padded: every sample must come out with
+    # the same bits wherever it sits in a block and whatever fills the rest of its block
+    problem = rr.RobustReentryProblem(uncertainty=rr.Uncertainty(s_std=(0.05, 0.05)))
+    spec = _spec(problem)
+    v = problem.base.vehicle
+    n = rk.LANES + 23
+    x0, s = mc.draw_samples(spec, 3, 0, n, nx=6, ns=2)
+    kw = {"t_nodes": spec["t_nodes"], "controls": np.asarray(spec["controls"]), "substeps": 5,
+          "kept_nodes": mc.trace_nodes(len(spec["t_nodes"])), "path": rk.PATH_ORDER}
+    whole = rk.run_chunk(v, x0=x0, s=s, **kw)
+    for a, b in ((0, 1), (1, 6), (6, n)):                 # lane offsets 0, 1 and 6; padded blocks
+        part = rk.run_chunk(v, x0=x0[:, a:b], s=s[:, a:b], **kw)
+        np.testing.assert_array_equal(part[0], whole[0][:, a:b])
+        for w in (1, 2):
+            for name in rk.PATH_ORDER:
+                np.testing.assert_array_equal(part[w][name], whole[w][name][a:b])
+        for q in whole[3]:
+            np.testing.assert_array_equal(part[3][q], whole[3][q][:, a:b])
+    rev = rk.run_chunk(v, x0=x0[:, ::-1], s=s[:, ::-1], **kw)     # every sample in another lane
+    np.testing.assert_array_equal(rev[0][:, ::-1], whole[0])
