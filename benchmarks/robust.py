@@ -1,6 +1,6 @@
 """Robust reentry benchmark: solves, the whole job, and the Monte Carlo against its peers, in one run.
 
-    python -m benchmarks.robust [--samples 10000] [--scale-samples 1000000] [--processes 1,2,4]
+    python -m benchmarks.robust [--samples 10000] [--scale-samples 1000000] [--processes 1,2,4] [--only mc]
 
 Tables (each figure with its ratio to the strongest baseline measured in the same run):
 * solves: the deterministic (DO) solve is the reference of the robust (RO) solve, cold (the
@@ -144,7 +144,13 @@ def main() -> None:
     ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--skip-scale", action="store_true",
                     help="skip the scale-out; the figures of sections not run are kept from latest.json")
+    ap.add_argument("--only", choices=("mc",),
+                    help="mc: the one-core Monte Carlo table alone (the RO design from one cold solve in vm "
+                         "mode, not reported); only the mc_* figures are written")
     args = ap.parse_args()
+    if args.only == "mc":
+        args.skip_job = args.skip_scale = True
+        args.modes, args.warm = "vm", 0
     if args.child:
         print(json.dumps(child(warm=args.warm, job_repeat=0 if args.skip_job else args.job_repeat,
                                samples=args.samples)))
@@ -258,6 +264,8 @@ def main() -> None:
         figures[f"mc_scale_{p}p_efficiency"] = eff
     if procs:
         figures["mc_scale_samples"] = ns
+    if args.only == "mc":
+        figures = {k: v for k, v in figures.items() if k.startswith("mc_")}
     if args.skip_job or args.skip_scale:
         old = json.loads(LATEST.read_text()).get("robust", {}).get("figures", {}) if LATEST.exists() else {}
         figures = {**old, **figures}
