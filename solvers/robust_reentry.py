@@ -389,18 +389,25 @@ def _finish(problem, cad, *, do, res, stages, build_time, was_cached, do_pred, n
     mean = res.x[:NX]
     pred = _prediction(problem, cad, res.t, res.x, res.u, theta)
     obj = float(mean[LATITUDE, -1] - rob.k_objective * pred.sigma[LATITUDE, -1])
-    ver = None
-    if st.ok and base.verify:
-        nominal = dataclasses.replace(base.vehicle, cd_scale=base.vehicle.cd_scale * (1 + unc.s_mean[0]),
-                                      cl_scale=base.vehicle.cl_scale * (1 + unc.s_mean[1]))
-        from solvers.verification import repropagate
-        ver = repropagate(rhs=lambda x, u: dyn.eom(x, u, nominal, np), x0=base.initial_state,
-                          t_nodes=res.t, x_nodes=mean, u_nodes=res.u, control="linear",
-                          path=det.path_quantities(nominal))
-        notes.append("verification re-propagates the robust controls with s = mu_s (the mean "
-                     "aerodynamics); the difference to the CADET mean is the nonlinearity the "
-                     "second-order term does not capture")
-    return RobustReentrySolution(
+    sol = RobustReentrySolution(
         status=status, deterministic=do, tf_s=res.tf, t=res.t, x=mean, u=res.u, objective_value=obj,
         heat_rate=pred.heat_mean, robust_prediction=pred, deterministic_prediction=do_pred,
-        verification=ver, stages=stages, notes=notes, augmented=np.array(res.x), shooting=res)
+        verification=None, stages=stages, notes=notes, augmented=np.array(res.x), shooting=res)
+    return verify(problem, sol) if st.ok and base.verify else sol
+
+
+def verify(problem: RobustReentryProblem, sol: RobustReentrySolution) -> RobustReentrySolution:
+    """``sol`` with its independent check: the robust controls re-propagated with s = mu_s.
+    :func:`solve` and :func:`resolve` call it when ``problem.base.verify``; the job's
+    confirmation loop solves without it and verifies only the design it reports."""
+    base, unc = problem.base, problem.uncertainty
+    nominal = dataclasses.replace(base.vehicle, cd_scale=base.vehicle.cd_scale * (1 + unc.s_mean[0]),
+                                  cl_scale=base.vehicle.cl_scale * (1 + unc.s_mean[1]))
+    from solvers.verification import repropagate
+    ver = repropagate(rhs=lambda x, u: dyn.eom(x, u, nominal, np), x0=base.initial_state,
+                      t_nodes=sol.t, x_nodes=sol.x, u_nodes=sol.u, control="linear",
+                      path=det.path_quantities(nominal))
+    note = ("verification re-propagates the robust controls with s = mu_s (the mean "
+            "aerodynamics); the difference to the CADET mean is the nonlinearity the "
+            "second-order term does not capture")
+    return dataclasses.replace(sol, verification=ver, notes=[*sol.notes, note])

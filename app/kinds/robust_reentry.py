@@ -277,8 +277,11 @@ def run(params: RobustReentryParams, ctx: JobContext) -> RunOutcome:
         guess = warm_start_from_job(ctx, job, guess_from_result, field="initial_guess.from_job",
                                     what="trajectory")
         notes.append(f"deterministic stage warm-started from job {job}")
+    # The loop's designs are re-propagated (rr.verify) only when one is reported: a round the
+    # Monte Carlo rejects is not the answer, and its verification cost as much as a warm re-solve.
+    solving = dataclasses.replace(problem, base=dataclasses.replace(problem.base, verify=False))
     ctx.progress(0.0, "deterministic design (DO)")
-    sol = rr.solve(problem, initial_guess=guess, on_progress=lambda f, m: ctx.progress(0.6 * f, m),
+    sol = rr.solve(solving, initial_guess=guess, on_progress=lambda f, m: ctx.progress(0.6 * f, m),
                    should_stop=ctx.should_stop)
     if not sol.status.ok:
         partial = {"deterministic": reentry_result(sol.deterministic), "stages": sol.stages}
@@ -326,7 +329,7 @@ def run(params: RobustReentryParams, ctx: JobContext) -> RunOutcome:
                                f"than {rc.MAX_SIGMA_RATIO:g} times CADET's, outside the first-order regime "
                                "(lower k or the uncertainty)")
             break
-        corrected = dataclasses.replace(problem, robust=dataclasses.replace(
+        corrected = dataclasses.replace(solving, robust=dataclasses.replace(
             problem.robust, k_constraint=correction.k_constraint,
             sigma_limits={**problem.robust.sigma_limits, **correction.sigma_limits}))
         ctx.progress(0.65 + 0.3 * (r + 0.5) / settings.max_rounds, f"robust re-solve, round {r + 2}")
@@ -338,6 +341,8 @@ def run(params: RobustReentryParams, ctx: JobContext) -> RunOutcome:
     agrees = rounds[-1]["agrees"]
     best = len(rounds) - 1 if agrees else min(range(len(rounds)), key=lambda k: rc.shortfall(rounds[k]))
     sol, summary, p2 = designs[best]
+    if problem.base.verify:
+        sol = rr.verify(problem, sol)
 
     result = _design_result(sol, kj)
     mc_out = {"samples": mcp.samples, "seed": mcp.seed, "chunk_size": mcp.chunk_size,
