@@ -60,15 +60,30 @@ def child(*, warm: int, job_repeat: int, samples: int) -> dict:
     """One fresh process: the first (cold) DO + RO solve, ``warm`` warm ones, then the whole job
     ``job_repeat`` times (``job_repeat`` 0: none).  Printed as JSON by ``--child``."""
     from solvers.transcription import jit
+    from solvers.transcription.multiple_shooting import Transcription
 
     problem = rr.RobustReentryProblem()
+    # CPU seconds of the robust NLP solves: the shared machine's load inflates wall time.
+    ro_cpu = [0.0]
+    plain = Transcription.solve
+
+    def timed(self, **kw):
+        c0 = time.process_time()
+        try:
+            return plain(self, **kw)
+        finally:
+            if self.prob.key[0] == "robust_reentry":
+                ro_cpu[0] += time.process_time() - c0
+
+    Transcription.solve = timed
 
     def solve() -> dict:
+        ro_cpu[0] = 0.0
         t0, c0 = time.perf_counter(), time.process_time()
         sol = rr.solve(problem)
         total, cpu = time.perf_counter() - t0, time.process_time() - c0
         do = sol.deterministic
-        return {"sol": sol, "total_s": total, "cpu_s": cpu,
+        return {"sol": sol, "total_s": total, "cpu_s": cpu, "ro_cpu_s": ro_cpu[0],
                 "do_s": do.status.solve_time_s + do.status.build_time_s, "do_iterations": do.status.iterations,
                 "ro_s": _robust(sol, "solve_time_s") + sol.status.build_time_s,
                 "ro_iterations": int(_robust(sol, "iterations")), "ro_tf_s": sol.tf_s, "do_tf_s": do.tf_s,
@@ -77,7 +92,7 @@ def child(*, warm: int, job_repeat: int, samples: int) -> dict:
 
     cold = solve()
     runs = [solve() for _ in range(warm)]
-    best = min(runs, key=lambda r: r["ro_s"]) if runs else cold
+    best = min(runs, key=lambda r: r["ro_cpu_s"]) if runs else cold
     sol = best["sol"]
     for r in (cold, *runs):
         r.pop("sol")
@@ -187,16 +202,20 @@ def main() -> None:
                 (f"{mode}: DO + RO solve call, warm (CPU s)", w["cpu_s"], w["ro_iterations"] + w["do_iterations"]))
         for name, tm, it in rows:
             print(f"{name:52s} {tm:8.2f} {it:6d} {tm / base:7.2f}  {w['status']}")
+        print(f"{mode + ': RO solve, both stages, warm (CPU s)':52s} {w['ro_cpu_s']:8.2f} {w['ro_iterations']:6d}"
+              f"          (IPOPT calls only)")
         print(f"  tf DO {w['do_tf_s']:.2f} s, RO {w['ro_tf_s']:.4f} s; compiled derivatives: {w['compiled']}; "
-              f"target RO < 5 s: {'met' if w['ro_s'] < 5 else 'NOT met'}")
+              f"target RO < 5 s: {'met' if w['ro_s'] < 5 else 'NOT met'} (wall), "
+              f"{'met' if w['ro_cpu_s'] < 5 else 'NOT met'} (CPU)")
         if "job" in r:
             j = r["job"]
             print(f"{mode + ': whole robust job, warm, in-process':52s} {j['total_s']:8.2f}   rounds {j['rounds']}, "
                   f"{j['status']}, CPU {j['cpu_s']:.2f} s, peak RSS {r['rss_mib']:.0f} MiB; target < 10 s: "
-                  f"{'met' if j['total_s'] < 10 else 'NOT met'}")
+                  f"{'met' if j['total_s'] < 10 else 'NOT met'} (wall), {'met' if j['cpu_s'] < 10 else 'NOT met'} (CPU)")
         sfx = f"_{mode}"
         figures.update({f"do_solve{sfx}_s": w["do_s"], f"ro_solve_cold{sfx}_s": c["ro_s"],
-                        f"ro_solve_warm{sfx}_s": w["ro_s"], f"ro_solve_call_warm_cpu{sfx}_s": w["cpu_s"],
+                        f"ro_solve_warm{sfx}_s": w["ro_s"], f"ro_solve_warm_cpu{sfx}_s": w["ro_cpu_s"],
+                        f"ro_solve_call_warm_cpu{sfx}_s": w["cpu_s"],
                         f"ro_iterations{sfx}": w["ro_iterations"]})
         if "job" in r:
             figures.update({f"robust_job_warm{sfx}_s": r["job"]["total_s"],
@@ -207,11 +226,13 @@ def main() -> None:
     # The headline figures are the workers' way (compiled blocks) where it was measured.
     head = results.get("jit") or results[args.modes.split(",")[0]]
     figures.update(derivatives="vm" if head["jit"] == "off" else "jit", do_solve_s=head["warm"]["do_s"], ro_solve_cold_s=head["cold"]["ro_s"],
-                   ro_solve_warm_s=head["warm"]["ro_s"], ro_iterations=head["warm"]["ro_iterations"],
+                   ro_solve_warm_s=head["warm"]["ro_s"], ro_solve_warm_cpu_s=head["warm"]["ro_cpu_s"],
+                   ro_iterations=head["warm"]["ro_iterations"],
                    ro_tf_s=head["warm"]["ro_tf_s"], do_tf_s=head["warm"]["do_tf_s"],
                    first_solve_call_s=head["cold"]["total_s"])
     if "job" in head:
-        figures.update(robust_job_warm_s=head["job"]["total_s"], robust_job_rounds=head["job"]["rounds"],
+        figures.update(robust_job_warm_s=head["job"]["total_s"], robust_job_warm_cpu_s=head["job"]["cpu_s"],
+                       robust_job_rounds=head["job"]["rounds"],
                        robust_job_status=head["job"]["status"], robust_job_peak_rss_mib=head["rss_mib"])
     sol_t, sol_u = np.asarray(head["t"]), np.asarray(head["u"])
 
