@@ -19,7 +19,7 @@ once per structure and cached by content:
   generates 21 MB, whose compile would take minutes and gigabytes; a structure over the cap is
   marked (``nlp_<key>.skip``) and stays in the virtual machine in every process.  The robust
   transcription therefore compiles its per-interval derivative blocks instead
-  (:mod:`solvers.transcription.blocks`: 4.6 MB of C, about 15 s and 0.7 GB for gcc -Og), keyed
+  (:mod:`solvers.transcription.blocks`: 4.6 MB of C, 15-25 s and 0.6 GB for gcc -Og), keyed
   by the blocks' own content (:func:`digest_functions`);
 * without a C compiler on ``PATH`` (``cc``, ``gcc`` or ``clang``) every mode falls back to the
   virtual machine, silently and permanently for the process.
