@@ -7,8 +7,9 @@ at the nodes), for the vehicles it can express: polynomial aerodynamics, an expo
 atmosphere, Betts' heating fit or Sutton-Graves, either Earth model.  Anything else (aerodynamic
 tables, the US 1976 or a tabulated atmosphere) takes the numpy path; :func:`supports` says which.
 
-Why it is fast (10,000 samples of the RO design, one core, CPU s: this kernel about 0.3, the scalar
-per-sample version before it 1.18, the plain numba loop 2.3, heyoka's batch mode 3.1):
+Why it is fast (10,000 samples of the RO design on one core, ``python -m benchmarks.robust --only mc``,
+CPU s on the shared machine: 0.34 with the statistics, the kernel alone 0.30; the scalar
+per-sample kernel before it 1.18; the plain numba loop 1.7-2.3, heyoka's batch mode 3.1-3.5):
 
 * Everything that depends only on the controls (CL, CD, the bank's sine and cosine, the heating
   fit's alpha polynomial) is the same for all samples: computed once per RK stage
