@@ -7,9 +7,10 @@ short write transactions, serialized inside each process and opened with
 ``BEGIN IMMEDIATE`` so that a read-then-write transaction can never hit the
 un-retryable lock-upgrade deadlock.  PostgreSQL needs none of it.
 
-PostgreSQL's pool holds as many connections as requests run at once at 16 clients
-(``POOL_SIZE``): with 5 kept and the rest opened and closed per request, every
-overflow request paid a new connection (a backend fork).  A connection that sat
+PostgreSQL's pool holds as many connections as requests run at once in one API
+process (``POOL_SIZE``, the size of its thread pool): with 5 kept and the rest
+opened and closed per request, every overflow request paid a new connection (a
+backend fork).  A connection that sat
 idle longer than ``PING_IDLE_S`` is pinged before use (a database restart is then
 invisible to the next request); one in constant use is not, which saves a round
 trip per request under load (``pool_pre_ping`` pinged every checkout).  If the
@@ -35,7 +36,11 @@ from sqlalchemy.exc import DisconnectionError
 from sqlalchemy.orm import Session, sessionmaker
 
 SQLITE_BUSY_TIMEOUT_MS = 30_000
-POOL_SIZE = 16  # connections kept, one per API thread (app.main); MAX_OVERFLOW more for other threads/bursts
+# Connections kept, one per API thread (app.main); MAX_OVERFLOW more for other threads/bursts.  8 per process:
+# with 2 API processes (the default), 16 threads each queued behind one another for the GIL and POST at
+# 100 connections had a p99 of 675 ms; 8 each (16 in all, as one process had) 315 ms, at 1.5x the
+# throughput (benchmarks/api_load.py, same machine, minutes apart).
+POOL_SIZE = 8
 MAX_OVERFLOW = 8
 PING_IDLE_S = 5.0
 

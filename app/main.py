@@ -30,7 +30,7 @@ async def _lifespan(_app: FastAPI):
     # Sync routes run in anyio's thread pool, 40 threads by default: with 40 requests holding the GIL in turn
     # and waiting for 16 pooled connections, POST at 100 connections had a p99 of 1.5 s; one thread per
     # pooled connection (requests then wait their turn in order, on the event loop) cut it to 0.7-1.0 s
-    # at the same throughput (benchmarks/api_load.py, 2 shared cores).
+    # at the same throughput (benchmarks/api_load.py, 2 shared cores); app.db.POOL_SIZE says why 8 per process.
     anyio.to_thread.current_default_thread_limiter().total_tokens = POOL_SIZE
     yield
 

@@ -37,7 +37,7 @@ class Settings(BaseSettings):
     worker_concurrency: int = Field(default=1, ge=1, description="Solver processes per worker")
     # One process serves at most one core (the GIL): on PostgreSQL a single process spent its core on
     # Python while PostgreSQL and the clients had the other (benchmarks/api_load.py, 2 cores).  Two, not
-    # one per core: each keeps a pool of up to 24 connections of PostgreSQL's 100 by default.
+    # one per core: each keeps a pool of up to 16 connections (app.db) of PostgreSQL's 100 by default.
     api_workers: int = Field(default=2, ge=1, description="`trajlab api` processes (uvicorn workers) on one port")
     access_log: bool = Field(default=False, description="`trajlab api` writes one log line per request (uvicorn's "
                                                          "access log; it costs about a tenth of a request's CPU)")
