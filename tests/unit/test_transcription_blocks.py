@@ -6,7 +6,11 @@ import numpy as np
 import pytest
 
 from solvers.transcription import jit
-from solvers.transcription.multiple_shooting import PathConstraint, ShootingProblem, Transcription
+from solvers.transcription.multiple_shooting import (
+    PathConstraint,
+    ShootingProblem,
+    Transcription,
+)
 
 
 def toy(control: str) -> ShootingProblem:
