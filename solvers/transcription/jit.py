@@ -20,7 +20,8 @@ once per structure and cached by content:
   marked (``nlp_<key>.skip``) and stays in the virtual machine in every process.  The robust
   transcription therefore compiles its per-interval derivative blocks instead
   (:mod:`solvers.transcription.blocks`: 4.6 MB of C, 15-25 s and 0.6 GB for gcc -Og), keyed
-  by the blocks' own content (:func:`digest_functions`);
+  by the blocks' own content (:func:`digest_functions`); the deterministic reentry does too
+  (0.4 MB of library instead of the whole NLP's 2.4 MB, IPOPT 63 instead of 84 ms on Betts);
 * without a C compiler on ``PATH`` (``cc``, ``gcc`` or ``clang``) every mode falls back to the
   virtual machine, silently and permanently for the process.
 
