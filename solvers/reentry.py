@@ -126,7 +126,9 @@ class ReentrySolution:
 # Layout: [mass, area, aero numbers, cd_scale, cl_scale, q_max, qbar_max, n_max, lon0, lat0,
 # heating numbers] (solvers.models.vehicle_data: polynomial coefficients, none for a table; the
 # Sutton-Graves nose radius and constant).
-def _param_vector(problem: ReentryProblem) -> np.ndarray:
+def param_vector(problem: ReentryProblem) -> np.ndarray:
+    """The NLP's parameter vector ``p`` of ``problem`` (vehicle numbers, limits, start position), which
+    :func:`shooting_problem`'s transcription takes: one compiled structure serves every vehicle of a model."""
     v = problem.vehicle
     return np.array([v.mass_kg, v.area_m2, *vd.aero_numbers(v), v.cd_scale, v.cl_scale,
                      problem.max_heat_rate_w_m2 or 1.0, problem.max_dynamic_pressure_pa or 1.0,
@@ -141,9 +143,11 @@ def _symbolic_vehicle(vehicle: sh.Vehicle, p):
     return veh, p[i + 2], p[i + 3], p[i + 4], p[i + 5], p[i + 6]
 
 
-def _shooting_problem(problem: ReentryProblem, *, with_path: bool = True) -> ShootingProblem:
+def shooting_problem(problem: ReentryProblem, *, with_path: bool = True) -> ShootingProblem:
+    """``problem`` as the multiple-shooting transcription's problem (scaled, parameters ``param_vector``);
+    ``with_path=False`` leaves the path limits out (the first stage of a limited solve)."""
     veh0 = problem.vehicle
-    n_params = len(_param_vector(problem))
+    n_params = len(param_vector(problem))
 
     def unpack(p):
         return _symbolic_vehicle(veh0, p)
@@ -291,7 +295,7 @@ def solve(problem: ReentryProblem, *, initial_guess: InitialGuess | str | None =
         # problems of this kind it costs a few iterations.
         problem = dataclasses.replace(problem, ipopt={"expect_infeasible_problem": "yes",
                                                       **problem.ipopt})
-    p = _param_vector(problem)
+    p = param_vector(problem)
     x_lb, x_ub, u_lb, u_ub = state_bounds(problem, m)
     build_time = 0.0
     spans = [(0.0, 0.95)]
@@ -300,7 +304,7 @@ def solve(problem: ReentryProblem, *, initial_guess: InitialGuess | str | None =
         # Pitfall seen (spec): the heat-limited case converges badly from a cold guess; solve the
         # unconstrained problem first and start the constrained one from it.
         spans = [(0.0, 0.45), (0.45, 0.95)]
-        tr0 = Transcription(_shooting_problem(problem, with_path=False))
+        tr0 = Transcription(shooting_problem(problem, with_path=False))
         build_time += 0.0 if tr0.was_cached else tr0.solver.build_time_s
         r0 = tr0.solve(p=p, x_lb=x_lb, x_ub=x_ub, u_lb=u_lb, u_ub=u_ub,
                        tf_bounds=problem.tf_bounds_s, guess=on_grid(guess, m, problem.control),
@@ -319,7 +323,7 @@ def solve(problem: ReentryProblem, *, initial_guess: InitialGuess | str | None =
         # (20 iterations).
         problem = dataclasses.replace(problem, ipopt={"mu_strategy": "monotone", "mu_init": 1e-3,
                                                       **problem.ipopt})
-    tr = Transcription(_shooting_problem(problem))
+    tr = Transcription(shooting_problem(problem))
     build_time += 0.0 if tr.was_cached else tr.solver.build_time_s
     res = tr.solve(p=p, x_lb=x_lb, x_ub=x_ub, u_lb=u_lb, u_ub=u_ub,
                    tf_bounds=problem.tf_bounds_s, guess=on_grid(guess, m, problem.control),
@@ -343,7 +347,7 @@ def solve(problem: ReentryProblem, *, initial_guess: InitialGuess | str | None =
                       f"(worst {c['max']:.6g})" for q, c in ver.limits.items() if not c["held"]]
         elif limits:
             res, ver, report = hold_problem_limits(
-                problem, tr, res, ver, p=p, param_vector=_param_vector, limits=limits, verify=verify,
+                problem, tr, res, ver, p=p, param_vector=param_vector, limits=limits, verify=verify,
                 bounds=(x_lb, x_ub, u_lb, u_ub), stages=stages, on_progress=on_progress,
                 should_stop=should_stop)
     return _solution(problem, tr, res, build_time, notes, stages, ver=ver, report=report,

@@ -122,14 +122,14 @@ def test_reentry_structures_use_blocks_equal_to_casadi_ad(case):
     from solvers.reentry_guess import on_grid, simulate_constant_controls
 
     problem = _reentry_cases()[case]
-    sp = rs._shooting_problem(problem)
+    sp = rs.shooting_problem(problem)
     assert sp.block_derivatives
     ours, ref = Transcription(sp), Transcription(dataclasses.replace(sp, block_derivatives=False))
     guess = simulate_constant_controls(problem, alpha_rad=0.3, bank_rad=-1.0)
     rng = np.random.default_rng(case)
     z = ref.pack(*on_grid(guess, problem.intervals, problem.control))
     z = z * (1.0 + 1e-3 * rng.standard_normal(z.size))
-    p, lam_g = rs._param_vector(problem), rng.standard_normal(ref.ng)
+    p, lam_g = rs.param_vector(problem), rng.standard_normal(ref.ng)
     for name, args in (("nlp_jac_g", (z, p)), ("nlp_hess_l", (z, p, 0.7, lam_g))):
         a = ours.solver.solver.get_function(name)(*args)
         b = ref.solver.solver.get_function(name)(*args)
