@@ -6,6 +6,7 @@ SI and degrees; :mod:`solvers.reentry` works in SI and radians.
 """
 from __future__ import annotations
 
+import functools
 import math
 
 from app.kinds.base import JobContext, KindSpec, Preset, RunOutcome, outcome_from_status, warm_start_from_job
@@ -81,12 +82,26 @@ PRESETS = [
 ]
 
 
+@functools.cache
+def _preset_problems() -> tuple:
+    return tuple((p, ReentryParams.model_validate(p.params).model_dump(exclude={"initial_guess"})) for p in PRESETS)
+
+
+def preset_posed(params: ReentryParams) -> Preset | None:
+    """The preset whose problem ``params`` pose (the initial guess aside), or None.  Its result repeats
+    the preset's description: where and why the answer differs from the paper or the flight belongs
+    beside the answer, not only in the catalogue."""
+    posed = params.model_dump(exclude={"initial_guess"})
+    return next((p for p, dumped in _preset_problems() if dumped == posed), None)
+
+
 def run(params: ReentryParams, ctx: JobContext) -> RunOutcome:
     from solvers import reentry as rs
 
     problem = to_problem(params)
     guess = params.initial_guess.kind
-    notes = []
+    posed = preset_posed(params)
+    notes = [] if posed is None else [f"preset {posed.name}: {posed.description}"]
     if params.initial_guess.from_job:
         job = params.initial_guess.from_job
         guess = warm_start_from_job(ctx, job, guess_from_result, field="initial_guess.from_job",

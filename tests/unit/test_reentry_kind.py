@@ -76,6 +76,18 @@ def test_betts_preset_result(betts):
     assert max(dense["heat_rate_w_m2"]) == pytest.approx(ver["max_heat_rate_w_m2"], rel=0.01)
     fr = [f for f, _ in ctx.messages]
     assert fr == sorted(fr) and any("IPOPT iteration" in m for _, m in ctx.messages)
+    # the preset's comparison with Betts rides along with the answer
+    assert res["notes"][0].startswith("preset betts-max-crossrange: Maximum final latitude.")
+    assert "34.1412 deg" in res["notes"][0]
+
+
+def test_a_preset_is_recognized_by_its_problem_not_by_its_guess():
+    from app.kinds.reentry import preset_posed
+    for p in PRESETS:
+        assert preset_posed(preset(p.name)) is p
+        assert preset_posed(preset(p.name, initial_guess={"kind": "linear"})) is p
+    assert preset_posed(preset("mars-msl-max-crossrange", grid={"intervals": 60})) is None
+    assert preset_posed(preset("betts-max-crossrange", path={"max_heat_rate_w_m2": 700000.0})) is None
 
 
 def test_infeasible_case_fails_fast_with_diagnosis():
