@@ -117,16 +117,19 @@ class Database:
             yield conn
 
     @contextmanager
+    def _serialized(self) -> Iterator[None]:
+        """Holds the process's SQLite write lock (nothing on PostgreSQL): module docstring."""
+        if self._write_lock is None:
+            yield
+            return
+        with self._write_lock:
+            yield
+
+    @contextmanager
     def write_connection(self) -> Iterator[Connection]:
         """:meth:`write` as a Core connection in a transaction: committed on success, rolled back on error."""
-        if self._write_lock is not None:
-            self._write_lock.acquire()
-        try:
-            with self._write_engine.begin() as conn:
-                yield conn
-        finally:
-            if self._write_lock is not None:
-                self._write_lock.release()
+        with self._serialized(), self._write_engine.begin() as conn:
+            yield conn
 
     @contextmanager
     def autocommit(self) -> Iterator[Connection]:
@@ -143,14 +146,8 @@ class Database:
     @contextmanager
     def write(self) -> Iterator[Session]:
         """A short write transaction: committed on success, rolled back on error."""
-        if self._write_lock is not None:
-            self._write_lock.acquire()
-        try:
-            with self._write() as session, session.begin():
-                yield session
-        finally:
-            if self._write_lock is not None:
-                self._write_lock.release()
+        with self._serialized(), self._write() as session, session.begin():
+            yield session
 
     def dispose(self) -> None:
         self.engine.dispose()
