@@ -274,6 +274,7 @@ def solve_finite(problem: InterceptProblem, *, on_progress: ProgressFn | None = 
     progress = on_progress or noop_progress
     tf = problem.scenario.tf_s
     warm = "trajectory of a stored solution"
+    imp = None
     if initial_guess is None:
         progress(0.0, "impulsive warm start")
         initial_guess, tf, imp = _impulsive_start(problem, earlier, progress, should_stop)
@@ -288,6 +289,33 @@ def solve_finite(problem: InterceptProblem, *, on_progress: ProgressFn | None = 
     sol = solve_finite_thrust(fp, initial_guess=initial_guess,
                               on_progress=lambda f, m: progress(0.05 + 0.95 * f, m), should_stop=should_stop)
     sol.warm_start = warm
+    return by_impulsive_bound(sol, imp, problem.scenario)
+
+
+def by_impulsive_bound(sol: FiniteThrustSolution, imp: ImpulsiveSolution | None, sn) -> FiniteThrustSolution:
+    """An NLP that found no feasible point is ``infeasible`` when the impulsive bound says so.
+
+    IPOPT's way of failing on a problem without a solution depends on its iterates (on one CPU it
+    proves local infeasibility, on another it runs out of iterations), so a failed solve's outcome
+    cannot rest on IPOPT's return status.  What the problem itself shows decides instead: the
+    cheapest admissible single impulse (arcs through the planet left out) already needs more
+    propellant than is on board.  That is evidence, not a proof (several burns can cost less than
+    one), so it only classifies a solve that found no feasible thrust history; a converged
+    solve, which is a proof of feasibility, is never overruled.
+    """
+    failed = sol.status.outcome in (Outcome.INFEASIBLE, Outcome.NOT_CONVERGED) and sol.status.solver_status not in (
+        "Solve_Succeeded", "Solved_To_Acceptable_Level")
+    if not failed or imp is None or imp.status.solver_status != "insufficient_propellant":
+        return sol
+    where = "within the tf bounds" if sn.free_final_time else f"at tf = {sn.tf_s:g} s"
+    sol.status = replace(
+        sol.status, outcome=Outcome.INFEASIBLE, solver_status="insufficient_propellant",
+        message=(f"no thrust history of at most {sn.max_thrust_n:g} N reaches the target {where} with "
+                 f"{sn.propellant_kg:g} kg of propellant: the finite-thrust NLP found no feasible point "
+                 f"(IPOPT: {sol.status.solver_status}) and the cheapest admissible single impulse needs "
+                 f"{imp.fuel_kg:.1f} kg"),
+        details={**sol.status.details, "ipopt_status": sol.status.solver_status,
+                 "impulsive_bound_fuel_kg": imp.fuel_kg})
     return sol
 
 

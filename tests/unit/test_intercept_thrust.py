@@ -6,7 +6,7 @@ import pytest
 from dataclasses import replace
 
 from solvers.astro.kepler import propagate
-from solvers.common import Outcome
+from solvers.common import Outcome, SolveStatus
 from solvers.intercept import InterceptProblem, ScanSettings, solve_impulsive
 from solvers.intercept_cases import CONVERGED_FUEL_KG, PAPER_003, REFERENCE_FUEL_KG
 from solvers.intercept_thrust import (
@@ -248,6 +248,33 @@ def test_fixed_tf_6000_is_infeasible_not_unconverged():
     assert ft.status.outcome is Outcome.INFEASIBLE, ft.status
     assert "400 kg of propellant" in ft.status.message and "tf = 6000 s" in ft.status.message
     assert sol.status.outcome is Outcome.INFEASIBLE
+    # the outcome follows from the impulsive bound, not from how IPOPT stopped on this CPU
+    assert ft.status.solver_status == "insufficient_propellant"
+    assert ft.status.details["impulsive_bound_fuel_kg"] == pytest.approx(440.7, abs=0.1)
+
+
+@pytest.mark.parametrize("ipopt_status, outcome, expected", [
+    ("Maximum_Iterations_Exceeded", Outcome.NOT_CONVERGED, Outcome.INFEASIBLE),   # another CPU's iterates
+    ("Infeasible_Problem_Detected", Outcome.INFEASIBLE, Outcome.INFEASIBLE),
+    ("Restoration_Failed", Outcome.NOT_CONVERGED, Outcome.INFEASIBLE),
+    # converged but the re-propagation misses: a feasible NLP point, never called infeasible
+    ("Solve_Succeeded", Outcome.NOT_CONVERGED, Outcome.NOT_CONVERGED),
+    ("Solve_Succeeded", Outcome.OPTIMAL, Outcome.OPTIMAL),
+])
+def test_a_failed_finite_thrust_solve_is_classified_by_the_impulsive_bound(ipopt_status, outcome, expected):
+    from solvers.intercept import by_impulsive_bound
+    from solvers.intercept_thrust import FiniteThrustSolution
+
+    imp = solve_impulsive(InterceptProblem(replace(PAPER_003, tf_s=6000.0)))
+    assert imp.status.solver_status == "insufficient_propellant"
+    sol = by_impulsive_bound(FiniteThrustSolution(status=SolveStatus(outcome, solver_status=ipopt_status)), imp,
+                             replace(PAPER_003, tf_s=6000.0))
+    assert sol.status.outcome is expected
+    # with enough propellant the bound says nothing and a failure stays what IPOPT said
+    roomy = replace(imp, status=SolveStatus(Outcome.OPTIMAL, solver_status="Scan_Refined"))
+    sol = by_impulsive_bound(FiniteThrustSolution(status=SolveStatus(outcome, solver_status=ipopt_status)), roomy,
+                             replace(PAPER_003, tf_s=6000.0))
+    assert sol.status.outcome is outcome
 
 
 def test_verification_reports_the_smallest_radius_and_the_planet():
