@@ -283,7 +283,7 @@ def solve(problem: RobustReentryProblem, *, initial_guess=None, on_progress: Pro
 
     # The DO is paper 001's comparison design and the RO's starting point: its heating limit at
     # the nodes, reported between them, as the paper's reference numbers were computed (the
-    # reentry kind's default tightens it until it holds between the nodes: solvers.reentry_limits).
+    # reentry kind's default tightens it until it holds between the nodes: solvers.reentry.limits).
     do_base = dataclasses.replace(base, path_enforcement="nodes", limit_tolerance=None)
     do = det.solve(do_base, initial_guess=initial_guess, on_progress=sub(0.0, 0.3), should_stop=should_stop)
     stages = [{"stage": "deterministic", **{k: v for k, v in s.items() if k != "stage"},

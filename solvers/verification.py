@@ -58,7 +58,7 @@ class Verification:
     error_estimate: np.ndarray | None = None
     node_x: np.ndarray | None = None    # re-propagated state at every node (nx, m+1)
     # Per limited path quantity: limit, worst dense value and its time, excess, held (within the
-    # tolerance); filled by the caller that knows the limits (solvers.reentry_limits.limit_checks).
+    # tolerance); filled by the caller that knows the limits (solvers.reentry.limits.limit_checks).
     limits: dict[str, dict] = field(default_factory=dict)
 
     def interval_max(self, name: str, intervals: int) -> np.ndarray:

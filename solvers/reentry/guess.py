@@ -1,7 +1,7 @@
 """Initial guesses of the reentry problem: a glide simulated with constant controls, straight
 lines, or another solution on any grid, interpolated onto the shooting grid.
 
-Split from :mod:`solvers.reentry` (which re-exports these names) to keep that module on the
+Split from :mod:`solvers.reentry.solver` (the package re-exports these names) to keep that module on the
 problem and the solve.
 """
 from __future__ import annotations
@@ -19,7 +19,7 @@ from solvers.models.reentry_state import ALTITUDE, LATITUDE, LONGITUDE, NU, NX, 
 from solvers.transcription.multiple_shooting import control_nodes
 
 if TYPE_CHECKING:
-    from solvers.reentry import ReentryProblem
+    from solvers.reentry.problem import ReentryProblem
 
 
 @dataclass

@@ -119,7 +119,7 @@ def _reentry_cases():
 @pytest.mark.parametrize("case", range(4))
 def test_reentry_structures_use_blocks_equal_to_casadi_ad(case):
     from solvers import reentry as rs
-    from solvers.reentry_guess import on_grid, simulate_constant_controls
+    from solvers.reentry.guess import on_grid, simulate_constant_controls
 
     problem = _reentry_cases()[case]
     sp = rs.shooting_problem(problem)

@@ -26,7 +26,7 @@ from solvers.models.vehicle_data import (
     vehicle_to_dict,
     with_symbols,
 )
-from solvers.reentry_guess import simulate_constant_controls
+from solvers.reentry.guess import simulate_constant_controls
 from tests.unit import test_api_contract
 
 DEG = math.pi / 180

@@ -1,0 +1,30 @@
+"""Lifting reentry trajectory optimization by direct multiple shooting (the ``reentry`` job kind).
+
+The public face: :class:`ReentryProblem`, :class:`Terminal`, :class:`ReentrySolution`
+(:mod:`.problem`), :func:`solve` and the transcription's public pieces (:mod:`.solver`), the
+initial guesses (:mod:`.guess`); the limits that hold between nodes are in :mod:`.limits`.
+Names are imported on first use (:mod:`solvers.lazy`), so importing the package loads no CasADi.
+"""
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from solvers.lazy import lazy_exports
+
+_EXPORTS = {
+    **dict.fromkeys(("OBJECTIVES", "T_SCALE", "HEAT_LOAD_SCALE", "Terminal", "ReentryProblem",
+                     "ReentrySolution"), "problem"),
+    **dict.fromkeys(("solve", "param_vector", "shooting_problem", "state_bounds", "objective_value",
+                     "path_quantities"), "solver"),
+    **dict.fromkeys(("InitialGuess", "linear_guess", "on_grid", "rhs_numpy", "simulate_constant_controls"),
+                    "guess"),
+}
+__all__ = sorted(_EXPORTS)
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+
+if TYPE_CHECKING:  # the same names, for readers, type checkers and import-graph tools
+    from solvers.reentry.guess import InitialGuess, linear_guess, on_grid, rhs_numpy, simulate_constant_controls
+    from solvers.reentry.problem import (HEAT_LOAD_SCALE, OBJECTIVES, T_SCALE, ReentryProblem, ReentrySolution,
+                                         Terminal)
+    from solvers.reentry.solver import (objective_value, param_vector, path_quantities, shooting_problem,
+                                        solve, state_bounds)
