@@ -8,7 +8,7 @@
 * :func:`numba_loop`: the straightforward compiled loop a user would write: ``@njit`` classical
   RK4 per sample with the same steps and checks, element loops without array temporaries and
   ``error_model="numpy"``, the right-hand side in full at every stage (controls per stage).  What
-  ``solvers.robust_reentry_kernel`` adds on top is the point of the comparison: the control
+  ``solvers.robust_reentry.kernel`` adds on top is the point of the comparison: the control
   quantities shared by all samples and reciprocals in place of most divisions.
 
 Both use the Betts shuttle of the preset (non-rotating, exponential atmosphere, Betts heating).

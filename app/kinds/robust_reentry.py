@@ -266,7 +266,7 @@ def _round_block(record: dict) -> dict:
 def run(params: RobustReentryParams, ctx: JobContext) -> RunOutcome:
     import dataclasses
 
-    from solvers import robust_check as rc
+    from solvers.robust_reentry import check as rc
     from solvers import robust_reentry as rr
 
     problem = _problem(params)

@@ -79,7 +79,7 @@ _REGISTRY: dict[str, Callable[[dict], MCModel]] = {}
 _LAZY = {
     # Resolved on first use so that importing this module stays cheap and a worker
     # needs nothing but the name.
-    "shuttle_reentry": "solvers.robust_reentry_mc:monte_carlo_model",
+    "shuttle_reentry": "solvers.robust_reentry.mc:monte_carlo_model",
 }
 
 

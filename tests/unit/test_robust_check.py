@@ -1,4 +1,4 @@
-"""The robust design's confirmation rules (solvers.robust_check): targets, tolerance, correction.
+"""The robust design's confirmation rules (solvers.robust_reentry.check): targets, tolerance, correction.
 
 The numbers of a round come from a Monte Carlo summary; here the summaries are written by hand
 so that each rule is checked at its edge (the loop itself runs on real solves in
@@ -12,7 +12,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from solvers import robust_check as rc
+from solvers.robust_reentry import check as rc
 
 N = 10000
 

@@ -1,4 +1,4 @@
-"""The compiled Monte Carlo propagation (solvers.robust_reentry_kernel) against the numpy RK4.
+"""The compiled Monte Carlo propagation (solvers.robust_reentry.kernel) against the numpy RK4.
 
 Same steps, same checks: the summaries must agree to rounding (1e-9 relative) and count the same
 samples, on controls that cross the heating limit in some samples and not in others, with all
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from solvers import robust_reentry as rr
-from solvers import robust_reentry_kernel as rk
+from solvers.robust_reentry import kernel as rk
 from solvers.models import shuttle as sh
 from solvers.uncertainty import montecarlo as mc
 

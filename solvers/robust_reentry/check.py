@@ -33,7 +33,7 @@ import math
 from dataclasses import dataclass, field
 from statistics import NormalDist
 
-from solvers.robust_reentry_mc import TERMINAL_INDEX
+from solvers.robust_reentry.mc import TERMINAL_INDEX
 
 K_OVERSHOOT = 0.1        # added to the quantile gap when kC is raised
 SIGMA_SAFETY = 0.99      # tightened sigma limits aim 1% below the limit

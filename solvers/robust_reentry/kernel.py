@@ -1,5 +1,5 @@
 """Compiled Monte Carlo propagation of the shuttle reentry (numba), the fast path of
-:mod:`solvers.robust_reentry_mc`.
+:mod:`solvers.robust_reentry.mc`.
 
 The same classical RK4 as :func:`solvers.uncertainty.montecarlo.propagate` (controls linear
 between the nodes, ``substeps`` steps per interval, the path limits checked after every step and

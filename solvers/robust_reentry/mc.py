@@ -5,7 +5,7 @@
 ``"shuttle_reentry"``).  Besides the terminal statistics, the model names what the results
 plot: an envelope (mean and std over time) of altitude, speed and heating rate, and the
 terminal altitude, speed and flight-path angle of individual samples.  Vehicles the compiled
-propagation handles (:func:`solvers.robust_reentry_kernel.supports`) run through it; the numpy
+propagation handles (:func:`solvers.robust_reentry.kernel.supports`) run through it; the numpy
 right-hand side stays the reference and the path for every other vehicle.
 """
 from __future__ import annotations
@@ -21,12 +21,12 @@ from solvers.models.aerodynamics import AeroTable
 from solvers.models.atmosphere import Atmosphere
 from solvers.models.heating import SuttonGraves
 from solvers.models.reentry_state import ALTITUDE, NU, NX, SPEED, STATE_INDEX, STATE_NAMES
-from solvers import robust_reentry_kernel as rk
+from solvers.robust_reentry import kernel as rk
 from solvers.uncertainty.montecarlo import MCModel
 from solvers.uncertainty.montecarlo import PathConstraint as MCPath
 
 if TYPE_CHECKING:
-    from solvers.robust_reentry import RobustReentryProblem
+    from solvers.robust_reentry.problem import RobustReentryProblem
 
 # The terminal quantities with required values and sigma limits (paper 001), by state index.
 TERMINAL_INDEX = {name: STATE_INDEX[name] for name in ("altitude_m", "speed_mps", "flight_path_rad")}
