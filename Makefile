@@ -23,9 +23,13 @@ install-test: $(VENV)/.installed-test
 run: install
 	$(VENV)/bin/trajlab serve --port $(PORT)
 
+# scripts/test-prerequisites.sh makes the machine's PostgreSQL, Redis and Debian's Chromium present
+# (or stops naming the missing one); the suite ends with the time each marker took.
+# make test PYTEST_ARGS="--random-order" shuffles the order (pytest-random-order; seed printed).
 test: install-test
+	scripts/test-prerequisites.sh
 	$(VENV)/bin/lint-imports
-	$(PY) -m pytest
+	$(PY) -m pytest $(PYTEST_ARGS)
 
 $(VENV)/.installed-bench: $(VENV)/.installed pyproject.toml
 	$(PY) -m pip install --quiet -e ".[bench]"

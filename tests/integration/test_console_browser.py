@@ -23,9 +23,9 @@ IMPULSIVE = {"methods": ["impulsive"]}
 
 @pytest.fixture(scope="module")
 def browser_page(service):
-    sync_api = pytest.importorskip("playwright.sync_api")
+    from playwright import sync_api  # a test dependency: missing is an error, never a skip
     if not shutil.which("chromium"):
-        pytest.fail("Debian's chromium is not installed (.ci/run installs it with apt)")
+        pytest.fail("Debian's chromium is not installed (make test installs it: scripts/test-prerequisites.sh)")
     with live_server(service.client.app) as url, sync_api.sync_playwright() as pw:
         browser = pw.chromium.launch(executable_path=CHROMIUM, args=ARGS)
         page = browser.new_page()

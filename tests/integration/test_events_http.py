@@ -1,6 +1,8 @@
 """Live progress over SSE against a real worker: the events of a whole job in order, and resumption."""
 from __future__ import annotations
 
+import time
+
 import pytest
 
 from app.client import parse_sse
@@ -8,8 +10,20 @@ from app.client import parse_sse
 pytestmark = pytest.mark.integration
 
 RANK = {"queued": 0, "running": 1, "succeeded": 2, "failed": 2, "cancelled": 2}
-# NSGA-II reports progress per generation: a run of a few seconds gives several events.
-MIDCOURSE = {"mode": "optimize", "corrections": 2, "population": 60, "generations": 400, "seed": 3}
+FINAL = ("succeeded", "failed", "cancelled")
+# NSGA-II reports progress per generation; 1,500 generations run for seconds, hundreds of the
+# service's polls, so the test sees the job running on any CPU (it waits for that state, below).
+MIDCOURSE = {"mode": "optimize", "corrections": 2, "population": 60, "generations": 1500, "seed": 3}
+
+
+def _wait_running(client, job_id: str, timeout: float = 120.0) -> None:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        job = client.get(f"/v1/jobs/{job_id}").json()
+        if job["status"] == "running" or job["status"] in FINAL:
+            return
+        time.sleep(0.05)
+    raise AssertionError(f"job {job_id} never started")
 
 
 def _events(client, job_id: str, headers: dict | None = None, stop_after: int | None = None) -> list[dict]:
@@ -27,7 +41,9 @@ def test_events_of_a_whole_job_in_order_then_resume_without_repeats(service):
     job = service.submit("midcourse", preset="upper-stage-two-corrections", params=MIDCOURSE).json()
     first = _events(service.client, job["id"], stop_after=1)
     assert first[0]["event"] == "progress" and first[0]["data"]["id"] == job["id"]
-    # Reconnect where the first stream stopped: the rest of the job, no repeat of what was seen.
+    # Reconnect where the first stream stopped, once the job is seen running (a state, not a speed):
+    # the rest of the job, no repeat of what was seen.
+    _wait_running(service.client, job["id"])
     rest = _events(service.client, job["id"], headers={"Last-Event-ID": first[0]["id"]})
     events = first + rest
     ids = [e["id"] for e in events]
@@ -37,7 +53,9 @@ def test_events_of_a_whole_job_in_order_then_resume_without_repeats(service):
     ranks = [RANK[e["data"]["status"]] for e in events]
     assert ranks == sorted(ranks)
     running = [e["data"]["progress"] for e in events if e["data"]["status"] == "running"]
-    assert running == sorted(running) and len(running) >= 2, events
+    # the contract: the running state is reported (the resumed stream opened while it held) and
+    # its progress never goes back; how many values a stream sees depends on the CPU's speed
+    assert running == sorted(running) and len(running) >= 1, events
     assert events[-1]["data"]["progress"] == 1.0
     # A finished job seen to its end: resuming from the final id sends nothing more.
     assert _events(service.client, job["id"], headers={"Last-Event-ID": events[-1]["id"]}) == []

