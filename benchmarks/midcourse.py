@@ -14,7 +14,7 @@ ratio against the baseline measured in the same run; the largest objective
 difference between the two evaluators on random schedules (must be < 1 m and
 < 0.01 m/s); the hypervolume of the paper run; the whole job warm (run() in this process,
 best of 5) and cold (a fresh process) with its peak RSS against a bare ``import numpy,
-casadi``.  NSGA-II is our array implementation (:mod:`solvers.midcourse_nsga2`); the
+casadi``.  NSGA-II is our array implementation (:mod:`solvers.midcourse.nsga2`); the
 "NSGA-II alone" row compares it with stock pymoo on zero-cost objectives.  Figures go to
 ``benchmarks/results/latest.json`` under ``midcourse``.  Timings depend on machine load.
 """
@@ -34,7 +34,7 @@ from app.kinds.midcourse import PRESETS, run  # noqa: E402
 from app.kinds.base import InProcessContext  # noqa: E402
 from benchmarks.results import write_results  # noqa: E402
 from app.kinds.midcourse_params import MidcourseParams  # noqa: E402
-from solvers import midcourse_cases as cases  # noqa: E402
+import solvers.midcourse as midcourse  # noqa: E402
 from solvers.astro.j2 import j2_rhs  # noqa: E402
 from solvers.astro.lambert import lambert  # noqa: E402
 from solvers.common import never_stop, noop_progress  # noqa: E402
@@ -51,7 +51,7 @@ CHECK_SCHEDULES = 200
 
 
 def paper_problem(**kw) -> MidcourseProblem:
-    return cases.paper_problem(mode="optimize", corrections=2, **kw)
+    return midcourse.paper_problem(mode="optimize", corrections=2, **kw)
 
 
 class NaiveEvaluator:

@@ -17,7 +17,7 @@ import time
 from app.kinds.base import JobContext, KindSpec, Preset, RunOutcome, json_float, outcome_from_status
 from app.kinds.midcourse_params import MidcourseParams
 from app.kinds.midcourse_result_model import MidcourseResult
-from solvers import midcourse_cases as cases
+from solvers.midcourse import cases
 
 PAPER_NOTE = (
     "Paper 002 gives neither the launch site nor R0; the launch frame used here (B0 = 28.3214 deg, "

@@ -1,6 +1,6 @@
 """Parameters of the ``midcourse`` kind (the API edge: SI units, angles in degrees).
 
-The defaults are paper 002's case (:mod:`solvers.midcourse_cases`, read from there;
+The defaults are paper 002's case (:mod:`solvers.midcourse.cases`, read from there;
 the launch angles are printed here in degrees and a test keeps them equal to the case).
 """
 from __future__ import annotations
@@ -10,7 +10,7 @@ from typing import Literal
 from pydantic import Field, field_validator, model_validator
 
 from app.kinds.base import StrictModel
-from solvers import midcourse_cases as cases
+from solvers.midcourse import cases
 from solvers.astro.earth import AE_EARTH, J2_EARTH, MU_EARTH
 
 MAX_POPULATION = 1000
@@ -21,7 +21,7 @@ MAX_SCHEDULES = 1000
 MAX_ROWS_PER_GENERATION = 200_000
 MAX_CORRECTIONS = 5
 
-# The fitted launch site in degrees (solvers.midcourse_cases holds it in radians).
+# The fitted launch site in degrees (solvers.midcourse.cases holds it in radians).
 PAPER_LATITUDE_DEG = 28.3214
 PAPER_AZIMUTH_DEG = 135.7033
 

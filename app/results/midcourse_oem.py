@@ -2,14 +2,14 @@
 (default: the point of least delta-v; ``?point=i`` picks front point i) or the nominal transfer.
 
 A midcourse result stores schedules, not trajectories; the chosen one is re-flown from the stored
-result and the job's parameters by :func:`solvers.midcourse_trajectory.transfer_trajectories`
+result and the job's parameters by :func:`solvers.midcourse.trajectory.transfer_trajectories`
 (the solver's own J2 propagator and Lambert impulses, so its final errors are the front point's
 objectives).  The corrected flight is one OEM data segment per coast: a segment ends with the
 state just before an impulse and the next starts with the state just after it, at the same epoch.
 
 Frame: paper 002's launch-inertial frame is inertial and only translated by ``R0``, so the states
 are written Earth-centred with ``z`` along the Earth's spin axis and ``x`` in the launch meridian
-at t0 (:func:`solvers.midcourse_trajectory.inertial_rotation`), as ``REF_FRAME = EME2000``,
+at t0 (:func:`solvers.midcourse.trajectory.inertial_rotation`), as ``REF_FRAME = EME2000``,
 ``CENTER_NAME = EARTH``.  The parameters give neither the launch longitude nor a calendar epoch,
 so this is EME2000 up to a rotation about ``z`` (and precession since J2000); t0 is written as
 J2000 TDB, as for the intercept.  The file's COMMENT lines say so.  With ``frame = "eci"`` the
@@ -38,7 +38,7 @@ def midcourse_segments(*, result: dict, params: dict, point: int,
     file's COMMENT lines."""
     from app.kinds.midcourse import to_problem
     from app.kinds.midcourse_params import MidcourseParams
-    from solvers.midcourse_trajectory import inertial_rotation, transfer_trajectories
+    from solvers.midcourse.trajectory import inertial_rotation, transfer_trajectories
 
     p = MidcourseParams.model_validate(params)
     problem = to_problem(p)

@@ -8,7 +8,8 @@ from hypothesis import strategies as st
 
 from solvers.astro.j2 import LaunchFrame
 from solvers.common import Outcome
-from solvers import midcourse_cases as cases
+import solvers.midcourse as midcourse
+from solvers.midcourse import cases
 from solvers.midcourse import (
     CorrectionEvaluator,
     Dispersion,
@@ -23,7 +24,7 @@ FRAME = cases.paper_frame()
 
 def paper_problem(**kw) -> MidcourseProblem:
     """Paper 002 Tables 1-2 in the spec's fitted launch frame."""
-    return cases.paper_problem(**kw)
+    return midcourse.paper_problem(**kw)
 
 
 # Spec midcourse.md, Table 3, "reimpl." columns: (times, dV m/s, position error m, velocity error m/s).
@@ -220,7 +221,7 @@ def test_mirrored_branch_solve_equals_two_explicit_lambert_calls():
 
 
 def test_array_nsga2_ranks_and_crowding_match_their_definitions():
-    from solvers.midcourse_nsga2 import crowding, nondominated_ranks, survive
+    from solvers.midcourse.nsga2 import crowding, nondominated_ranks, survive
 
     rng = np.random.default_rng(4)
     f = np.round(rng.uniform(0, 10, (60, 3)), 0)          # coarse values: ties and exact copies occur

@@ -168,7 +168,7 @@ def _read_oem(text: str, tmp_path):
 def test_the_midcourse_oem_reads_back_and_flies_the_front_points_corrections(tmp_path):
     from app.kinds.midcourse import to_problem
     from app.results.midcourse_oem import default_point, midcourse_segments, midcourse_to_oem
-    from solvers.midcourse_trajectory import inertial_rotation
+    from solvers.midcourse.trajectory import inertial_rotation
 
     _, params, outcome = solve_preset("upper-stage-table3")
     result = outcome.result

@@ -11,7 +11,6 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:   # the API edge reads the numbers here without loading the numerics
     from solvers.astro.j2 import LaunchFrame
-    from solvers.midcourse import MidcourseProblem
 
 LAUNCH_LATITUDE_RAD = math.radians(28.3214)     # geodetic B0, fitted
 LAUNCH_AZIMUTH_RAD = math.radians(135.7033)     # A0, fitted
@@ -39,15 +38,3 @@ def paper_frame() -> LaunchFrame:
 
     return LaunchFrame.from_geodetic(latitude_rad=LAUNCH_LATITUDE_RAD, azimuth_rad=LAUNCH_AZIMUTH_RAD,
                                      height_m=LAUNCH_HEIGHT_M)
-
-
-def paper_problem(**overrides) -> MidcourseProblem:
-    """Paper 002's transfer with its initial error; ``overrides`` replace any field (mode, schedules, ga, ...)."""
-    import numpy as np
-
-    from solvers.midcourse import MidcourseProblem
-
-    base = dict(r0=np.array(R0_M), v0=np.array(V0_MPS), r_target=np.array(R_TARGET_M),
-                v_target=np.array(V_TARGET_MPS), tf_s=TF_S, position_error=np.array(POSITION_ERROR_M),
-                velocity_error=np.array(VELOCITY_ERROR_MPS), frame=paper_frame())
-    return MidcourseProblem(**{**base, **overrides})

@@ -1,6 +1,6 @@
 """NSGA-II over midcourse correction times (paper 002): the search of :mod:`solvers.midcourse`.
 
-NSGA-II (Deb et al. 2002) on plain arrays (:mod:`solvers.midcourse_nsga2`; pymoo's per-individual
+NSGA-II (Deb et al. 2002) on plain arrays (:mod:`solvers.midcourse.nsga2`; pymoo's per-individual
 bookkeeping was two thirds of the paper run), driven by our loop so that it owns termination and
 cancellation; the repair that keeps a schedule sorted, spaced and in bounds; the non-dominated
 filter and the normalized hypervolume of a front (pymoo's HV).
@@ -14,7 +14,7 @@ import numpy as np
 from solvers.common import ProgressFn, StopFn
 
 if TYPE_CHECKING:
-    from solvers.midcourse import MidcourseProblem
+    from solvers.midcourse.problem import MidcourseProblem
 
 
 def repair_schedule(times: np.ndarray, *, lower: float, upper: float, spacing: float) -> np.ndarray:
@@ -63,11 +63,11 @@ def run_nsga2(problem: MidcourseProblem, ev: Callable[[np.ndarray], np.ndarray],
     set, the generations run, and whether it was cancelled.
 
     ``ev(times (N, k)) -> objectives (N, 3)`` is any vectorized evaluator.  The loop
-    (:func:`solvers.midcourse_nsga2.nsga2`) owns termination: it stops after the generation in
+    (:func:`solvers.midcourse.nsga2.nsga2`) owns termination: it stops after the generation in
     which ``should_stop()`` turns true, with that population as the partial result.  The same
     seed gives the same front.
     """
-    from solvers.midcourse_nsga2 import Operators, nsga2
+    from solvers.midcourse.nsga2 import Operators, nsga2
 
     lo, hi = map(float, problem.time_bounds)
     ga = problem.ga

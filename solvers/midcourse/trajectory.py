@@ -22,7 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from solvers.astro.j2 import LaunchFrame
-from solvers.midcourse import CorrectionEvaluator, MidcourseProblem
+from solvers.midcourse.problem import MidcourseProblem
+from solvers.midcourse.solver import CorrectionEvaluator
 
 __all__ = ["Arc", "TransferTrajectories", "inertial_rotation", "transfer_trajectories"]
 
