@@ -1,0 +1,27 @@
+"""The ``ocp`` kind: an optimal-control problem the user writes down as data, solved and verified.
+
+Public face.  The problem side (:func:`parse_problem`, the dataclasses, :data:`PRESETS`) is
+standard-library only, so the API process validates a problem and lists the presets without
+loading numpy or CasADi; :func:`solve` and :class:`OcpSolution` are loaded on first use
+(PEP 562), together with CasADi.
+
+Modules: ``expressions`` (the safe grammar), ``spec`` (params -> :class:`OcpProblem`),
+``cases`` (presets with published optima), ``symbolic`` (tree -> CasADi SX), ``phase`` (one
+phase -> NLP pieces: multiple shooting or LGL), ``verify`` (dense re-propagation), ``limits`` (limits that hold between nodes), ``solver`` (solve).
+"""
+from __future__ import annotations
+
+from solvers.ocp.cases import PRESETS
+from solvers.ocp.expressions import OcpInputError
+from solvers.ocp.spec import OcpLimits, OcpProblem, parse_problem
+
+__all__ = ["parse_problem", "OcpProblem", "OcpInputError", "OcpLimits", "PRESETS", "solve", "OcpSolution"]
+
+_LAZY = {"solve": "solvers.ocp.solver", "OcpSolution": "solvers.ocp.solver"}
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        import importlib
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

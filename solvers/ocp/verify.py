@@ -1,0 +1,145 @@
+"""Independent check of an ``ocp`` answer: re-fly its controls with scipy's DOP853 on a dense grid.
+
+The controls are interpolated exactly as the transcription defines them (linear or constant
+between multiple-shooting nodes; the segment's Lagrange polynomial through the LGL nodes) and
+the states integrated from the answer's initial state with ``solve_ivp(method="DOP853",
+rtol=1e-10)``, one interval after the other without restarting at the nodes (the state is
+carried over, so a matching defect shows as drift), which keeps a control's kink at an interval
+end from costing the integrator rejected steps.  Reported: per state, the largest difference
+to the NLP's nodes, absolute and divided by the state's scale; per path constraint, the worst
+value on the dense grid against its bounds (Betts, *Practical Methods for Optimal Control*,
+2nd ed., sec. 4.7: a limit enforced at the nodes can be exceeded between them), and per
+interval the worst excess, which the limit loop of :mod:`solvers.ocp.limits` tightens against.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from solvers.transcription.lgl import lagrange_matrix, lgl_nodes
+
+METHOD = "scipy DOP853, rtol 1e-10, continuous from the initial state, controls as transcribed"
+SAMPLES_PER_INTERVAL = 20
+LIMIT_TOLERANCE = 1e-3      # a path bound holds to 0.1% of the constraint's scale (as reentry's limits)
+
+
+@dataclass
+class Verification:
+    t: np.ndarray                                # dense times
+    x: np.ndarray                                # (nx, len(t))
+    u: np.ndarray                                # (nu, len(t))
+    max_abs_difference: dict[str, float]         # per state, over the nodes
+    max_scaled_difference: dict[str, float]
+    path: dict[str, dict] = field(default_factory=dict)
+    interval_excess: list[np.ndarray] = field(default_factory=list)   # per path constraint, (m,)
+    limits_held: bool = True
+    ok: bool = True
+    message: str = ""
+
+    def as_dict(self) -> dict:
+        return {"method": METHOD, "samples_per_interval": SAMPLES_PER_INTERVAL,
+                "max_state_difference": self.max_abs_difference,
+                "max_state_difference_scaled": self.max_scaled_difference,
+                "max_state_difference_scaled_overall": max(self.max_scaled_difference.values(), default=0.0),
+                "path": self.path, "limits_held": self.limits_held, "limit_tolerance": LIMIT_TOLERANCE,
+                "ok": self.ok, "message": self.message}
+
+
+def control_function(grid, t_nodes: np.ndarray, U: np.ndarray):
+    """``u(t, interval)``: the transcription's control on interval ``interval`` at times ``t``."""
+    m = grid.intervals
+    if grid.method == "multiple_shooting":
+        if grid.control == "constant":
+            return lambda t, k: np.repeat(U[:, k:k + 1], np.size(t), axis=1)
+        return lambda t, k: np.vstack([np.interp(np.atleast_1d(t), t_nodes[k:k + 2], U[i, k:k + 2])
+                                       for i in range(U.shape[0])])
+    n = grid.nodes
+    tau = lgl_nodes(n)
+
+    def u(t, k):
+        ta, tb = t_nodes[k * (n - 1)], t_nodes[(k + 1) * (n - 1)]
+        s = 2.0 * (np.atleast_1d(t) - ta) / (tb - ta) - 1.0
+        return U[:, k * (n - 1):k * (n - 1) + n] @ lagrange_matrix(tau, s).T
+    del m
+    return u
+
+
+def interval_bounds(grid, t_nodes: np.ndarray) -> np.ndarray:
+    step = 1 if grid.method == "multiple_shooting" else grid.nodes - 1
+    return t_nodes[::step]
+
+
+def verify(*, fns, grid, t_nodes, X, U, theta, c, t0, tf, state_names, x_scale,
+           path_bounds, path_names, path_scale) -> Verification:
+    """Re-fly ``U`` from ``X[:, 0]`` (module docstring).  ``path_bounds``: (lower, upper) per path
+    constraint (None for a side without a bound)."""
+    nx = fns.nx
+    uf = control_function(grid, t_nodes, np.asarray(U, float))
+    ends = interval_bounds(grid, t_nodes)
+    m = grid.intervals
+    rhs = fns.rhs
+    args = (np.asarray(theta, float), np.asarray(c, float), t0, tf)
+    atol = 1e-10 * np.asarray(x_scale, float)
+    ts, xs_, us_, node_x, fail = [], [], [], [X[:, 0].copy()], ""
+    y = np.asarray(X[:, 0], float).copy()
+    per_node = grid.n_nodes // m if grid.method == "lgl" else 1
+    for k in range(m):
+        ta, tb = ends[k], ends[k + 1]
+        nodes_k = t_nodes[k * per_node + 1:(k + 1) * per_node + 1] if grid.method == "lgl" else [tb]
+        dense = np.linspace(ta, tb, SAMPLES_PER_INTERVAL + 1)[:-1]
+        t_eval = np.unique(np.concatenate([dense, nodes_k]))
+
+        def f(t, x, k=k):
+            return np.asarray(rhs(t, x, uf(t, k)[:, 0], *args)).ravel()[:nx]
+        try:
+            sol = solve_ivp(f, (ta, tb), y, method="DOP853", rtol=1e-10, atol=atol, t_eval=t_eval)
+        except Exception as e:            # a NaN or an overflow in the user's dynamics
+            fail = f"re-propagation failed on interval {k}: {e}"
+            break
+        if not sol.success or sol.y.shape[1] != t_eval.size or not np.all(np.isfinite(sol.y)):
+            fail = f"re-propagation failed on interval {k}: {sol.message}"
+            break
+        keep = np.isin(t_eval, dense)
+        ts.append(t_eval[keep])
+        xs_.append(sol.y[:, keep])
+        us_.append(uf(t_eval[keep], k))
+        node_x += [sol.y[:, np.searchsorted(t_eval, tn)] for tn in nodes_k]
+        y = sol.y[:, -1].copy()
+    ts.append(np.array([t_nodes[-1]]))
+    xs_.append(y[:, None])
+    us_.append(uf(np.array([t_nodes[-1]]), m - 1))
+    t_d, x_d, u_d = np.concatenate(ts), np.hstack(xs_), np.hstack(us_)
+    scale = np.asarray(x_scale, float)
+    if fail:
+        nan = {s: float("nan") for s in state_names}
+        return Verification(t=t_d, x=x_d, u=u_d, max_abs_difference=nan, max_scaled_difference=dict(nan),
+                            limits_held=False, ok=False, message=fail)
+    diff = np.abs(np.column_stack(node_x) - X)
+    abs_d = {s: float(diff[i].max()) for i, s in enumerate(state_names)}
+    scaled = {s: float(diff[i].max() / scale[i]) for i, s in enumerate(state_names)}
+    ver = Verification(t=t_d, x=x_d, u=u_d, max_abs_difference=abs_d, max_scaled_difference=scaled)
+    if fns.npath:
+        vals = np.asarray(fns.path.map(t_d.size)(t_d[None, :], x_d, u_d, args[0], args[1], t0, tf))
+        interval = np.minimum(np.searchsorted(ends, t_d, side="right") - 1, m - 1)
+        for i, (name, (lo, hi), sc) in enumerate(zip(path_names, path_bounds, path_scale)):
+            v = vals[i]
+            over = np.full(v.shape, -np.inf)
+            if hi is not None:
+                over = np.maximum(over, (v - hi) / sc)
+            if lo is not None:
+                over = np.maximum(over, (lo - v) / sc)
+            per = np.full(m, -np.inf)
+            np.maximum.at(per, interval, over)
+            ver.interval_excess.append(per)
+            worst = float(over.max())
+            held = worst <= LIMIT_TOLERANCE
+            ver.limits_held &= held
+            ver.path[name] = {"lower": lo, "upper": hi, "min": float(v.min()), "max": float(v.max()),
+                              "worst_t": float(t_d[int(np.argmax(over))]),
+                              "excess_scaled": worst, "scale": float(sc), "held": bool(held)}
+    ver.message = ("re-propagated states agree with the nodes to "
+                   f"{max(scaled.values()):.2e} (scaled); path limits "
+                   f"{'hold' if ver.limits_held else 'do NOT hold'} on the dense grid")
+    return ver
