@@ -11,7 +11,9 @@ the parameters that drive its run time:
 * ``midcourse``: optimize: population x generations x max(1, dispersion samples) / 5
   (one J2 propagation per member and generation); evaluate: schedules x samples;
 * ``intercept``: scan and porkchop points / 100, plus 200 per finite-thrust
-  mesh (1 + max_refinements), twice that with a free final time.
+  mesh (1 + max_refinements), twice that with a free final time;
+* a kind that declares ``KindSpec.cost`` (``ocp``: intervals x (states + controls) x the
+  expressions' characters / 6000, twice for LGL, times the refinement rounds with ``accuracy``).
 
 A submission is refused with 429 (and ``Retry-After``) when its owner already
 has ``max_queued_per_owner`` queued jobs, ``max_active_per_owner`` queued plus
@@ -80,7 +82,13 @@ _COSTS = {"reentry": _reentry_cost, "robust_reentry": _robust_cost,
 
 def estimate_cost(kind: str, params: dict) -> float:
     """Work units of a job from its resolved parameters (see the module docstring)."""
-    cost = _COSTS[kind](params) if kind in _COSTS else 0.0
+    if kind in _COSTS:
+        cost = _COSTS[kind](params)
+    else:  # a kind that declares its own (KindSpec.cost)
+        from app.kinds import KINDS
+
+        own = getattr(KINDS.get(kind), "cost", None)
+        cost = float(own(params)) if own is not None else 0.0
     return cost if math.isfinite(cost) else math.inf
 
 

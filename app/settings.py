@@ -68,6 +68,17 @@ class Settings(BaseSettings):
     monte_carlo_chunk_samples: int = Field(
         default=50_000, description="Above this many samples a Monte Carlo is split across workers"
     )
+    # The ocp kind's limits (shared/specs/ocp.md): a problem past one is a 422 naming the setting.
+    ocp_max_expression_chars: int = Field(default=2000, ge=1, description="ocp: characters per expression")
+    ocp_max_expression_nodes: int = Field(default=400, ge=1, description="ocp: parse-tree nodes per expression")
+    ocp_max_states: int = Field(default=50, ge=1, description="ocp: states per problem")
+    ocp_max_controls: int = Field(default=20, ge=0, description="ocp: controls per problem")
+    ocp_max_parameters: int = Field(default=20, ge=0, description="ocp: static parameters per problem")
+    ocp_max_expressions: int = Field(default=200, ge=0, description="ocp: named expressions per problem")
+    ocp_max_tables: int = Field(default=50, ge=0, description="ocp: tables per problem")
+    ocp_max_table_values: int = Field(default=100_000, ge=1, description="ocp: values per table")
+    ocp_max_intervals: int = Field(default=1000, ge=1, description="ocp: transcription.intervals")
+    ocp_max_constraints: int = Field(default=200, ge=0, description="ocp: path (and boundary) constraints")
 
     # Security (README "Security"). Required unless switched off: `trajlab serve` on a
     # loopback address switches it off (one local user) and says so at start.

@@ -17,7 +17,7 @@ MAX_GENERIC = 10
 FIXED_OBJECTIVE = {"intercept": ("finite_thrust.fuel_kg", "min")}
 
 WARM_START_FIELD = {"reentry": "initial_guess.from_job", "robust_reentry": "initial_guess.from_job",
-                    "intercept": "finite_thrust.from_job"}
+                    "intercept": "finite_thrust.from_job", "ocp": "guess.from_job"}
 
 
 def _generic(result: dict, prefix: str = "", depth: int = 0, out: dict | None = None) -> dict[str, Any]:

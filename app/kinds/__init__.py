@@ -6,7 +6,7 @@ import importlib.util
 
 from app.kinds.base import KindSpec, Preset
 
-KIND_NAMES = ("reentry", "robust_reentry", "midcourse", "intercept")
+KIND_NAMES = ("reentry", "robust_reentry", "midcourse", "intercept", "ocp")
 
 
 def _load() -> dict[str, KindSpec]:

@@ -139,6 +139,11 @@ class KindSpec:
     key_numbers: Callable[[dict], dict] | None = None
     # Typed model of the stored result, for documentation and validation; None: untyped JSON.
     result_model: type[BaseModel] | None = None
+    # Estimated cost in app.quota's work units from the resolved params; None: app.quota's own table.
+    cost: Callable[[dict], float] | None = None
+    # The plots of one result (app.results.plots.PlotDef list) when they depend on the result;
+    # None: the static list in app.results.plots.PLOTS.
+    plots: Callable[[dict], list] | None = None
 
 
 def json_float(x) -> float | None:

@@ -264,7 +264,10 @@ SIZES = {"pareto_front": (14, 4.2), "envelopes": (9, 8), "terminal_scatter": (11
 
 
 def plots_for(kind: str, result: dict) -> list[PlotDef]:
-    return [p for p in PLOTS.get(kind, []) if p.available(result)]
+    from app.kinds import KINDS   # here: a kind's own plots module imports PlotDef from this one
+
+    own = getattr(KINDS.get(kind), "plots", None)
+    return [p for p in (own(result) if own is not None else PLOTS.get(kind, [])) if p.available(result)]
 
 
 def render(plot: PlotDef, *, result: dict, params: dict, title: str, fmt: str, dpi: int = 100) -> bytes:

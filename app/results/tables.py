@@ -52,6 +52,7 @@ TABLES: dict[str, dict[str, Callable[[dict], dict | None]]] = {
     "midcourse": {"pareto_front": _front},
     "intercept": {"scan": _at("impulsive.scan"), "finite_thrust": _at("finite_thrust.trajectory"),
                   "porkchop": _porkchop},
+    "ocp": {"trajectory": _at("trajectory"), "verification": _at("verification.trajectory")},
 }
 
 

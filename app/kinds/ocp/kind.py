@@ -1,0 +1,128 @@
+"""The ``ocp`` kind: the optimal-control problem the user writes down (``shared/specs/ocp.md``).
+
+API edge of :mod:`solvers.ocp`: the presets (from :mod:`solvers.ocp.cases`, each citing its
+source and published optimum), ``run`` (warm start, solve with the job's progress and cancel
+callbacks, the result of the spec's "Result" section), the key numbers, and the cost estimate
+that feeds the quota and the heavy queue.  ``solvers.ocp`` (CasADi) is imported inside ``run``
+only: the API process never loads it.
+"""
+from __future__ import annotations
+
+import time
+
+from app.kinds.base import (JobContext, JobFailure, KindSpec, Preset, RunOutcome, outcome_from_status)
+from app.kinds.ocp.params import OcpParams
+from app.kinds.ocp.plots import plots
+from app.kinds.ocp.result import OcpResult, build_result
+from solvers.ocp import cases
+
+WARM_START_FIELD = "guess.from_job"
+
+
+def _presets() -> list[Preset]:
+    out = []
+    for name, case in cases.PRESETS.items():
+        description = case["description"]
+        optimum = case.get("optimum")
+        if optimum is not None and str(optimum) not in description:
+            description += f" Published optimum: {optimum}."
+        out.append(Preset(name=name, kind="ocp", description=description, params=case["params"]))
+    return out
+
+
+PRESETS = _presets()
+
+
+def _warm_start(ctx: JobContext, job_id: str) -> dict:
+    """The stored result of another ``ocp`` job; a clean failure naming the field when it is missing,
+    not succeeded or not an ``ocp`` result (never ``internal``)."""
+    try:
+        stored = ctx.load_result(job_id)
+    except LookupError as exc:
+        raise JobFailure("invalid_input", f"{WARM_START_FIELD}: {exc}") from None
+    tr = stored.get("trajectory") if isinstance(stored, dict) else None
+    if not (isinstance(tr, dict) and isinstance(tr.get("t"), list) and len(tr["t"]) >= 2):
+        raise JobFailure("invalid_input", f"{WARM_START_FIELD}: job {job_id} has no ocp trajectory to start from")
+    return stored
+
+
+def run(params: OcpParams, ctx: JobContext) -> RunOutcome:
+    import solvers.ocp as solver
+
+    t_start = time.perf_counter()
+    problem = params.problem
+    from_job = params.guess.from_job
+    guess = _warm_start(ctx, from_job) if from_job else None
+    try:
+        sol = solver.solve(problem, initial_guess=guess, on_progress=ctx.progress, should_stop=ctx.should_stop)
+    except (KeyError, TypeError, ValueError) as exc:
+        if guess is None:
+            raise
+        # a stored result the solver cannot map onto this problem (other states, say)
+        raise JobFailure("invalid_input", f"{WARM_START_FIELD}: job {from_job} does not fit this problem "
+                                          f"({type(exc).__name__}: {str(exc)[:200]})") from None
+    result = build_result(sol, params, wall_time_s=time.perf_counter() - t_start, warm_start=from_job)
+    return outcome_from_status(sol.status, result)
+
+
+def _limits_held(verification) -> bool | None:
+    if not isinstance(verification, dict):
+        return None
+    for key in ("limits_held", "all_limits_held", "held"):
+        if isinstance(verification.get(key), bool):
+            return verification[key]
+    return None
+
+
+def key_numbers(result: dict) -> dict:
+    """Objective (in the user's sense), final time, and whether every limit held on the dense re-flight."""
+    out = {"objective": result["objective"]["value"], "sense": result["objective"]["sense"],
+           "tf": result["tf"]}
+    held = _limits_held(result.get("verification"))
+    if held is not None:
+        out["limits_held"] = held
+    solver = result.get("solver") or {}
+    out["iterations"] = solver.get("iterations")
+    return out
+
+
+# One work unit is about one RK4 step of one reentry shooting interval (app.quota): six states and
+# ~1,000 characters of expressions.  The NLP's size grows with states x intervals, and each node's
+# cost with the expressions' size.
+UNIT_STATES_CHARS = 6 * 1000.0
+
+
+def _text_size(params: dict) -> int:
+    size = 0
+    for group in ("expressions", "dynamics"):
+        size += sum(len(str(v)) for v in (params.get(group) or {}).values())
+    for group in ("path",):
+        size += sum(len(str(c.get("expr", ""))) for c in (params.get(group) or []) if isinstance(c, dict))
+    objective = params.get("objective") or {}
+    size += len(str(objective.get("integrand") or ""))
+    return size
+
+
+def cost(params: dict) -> float:
+    """Work units: intervals x (states + controls) x expression characters, scaled (see above)."""
+    tr = params.get("transcription") or {}
+    intervals = float(tr.get("intervals", 50))
+    width = float(len(params.get("states") or []) + len(params.get("controls") or []))
+    lgl = 2.0 if tr.get("method") == "lgl" else 1.0   # a collocation interval carries more nodes
+    refine = 1.0 + (float(tr.get("max_refinements", 8)) if params.get("accuracy") else 0.0)
+    return intervals * width * max(100, _text_size(params)) * lgl * refine / UNIT_STATES_CHARS
+
+
+SPEC = KindSpec(
+    kind="ocp",
+    params_model=OcpParams,
+    run=run,
+    presets=PRESETS,
+    summary="Your own optimal-control problem as data: states, controls, dynamics and constraints as "
+            "expressions; multiple shooting or LGL, verified by an independent re-flight",
+    time_limit_s=900.0,
+    key_numbers=key_numbers,
+    result_model=OcpResult,
+    cost=cost,
+    plots=plots,
+)

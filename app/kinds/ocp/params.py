@@ -1,0 +1,285 @@
+"""Parameters of the ``ocp`` kind: an optimal-control problem posed as data (``shared/specs/ocp.md``).
+
+The models mirror the spec's request table field by field, so ``/docs`` teaches the format; what
+the fields *mean* together (names that resolve, dynamics for every state, expressions in the
+language, bounds in order, the limits) is decided once, by :func:`solvers.ocp.spec.parse_problem`
+(stdlib only, safe here), through :func:`check_problem`.
+
+Why the whole-problem check hangs on :meth:`OcpParams.model_validate` rather than on a model
+validator: the ``params`` of a submission are a partial override of a preset (``{"constants":
+{"g": 1.62}}`` on ``brachistochrone``), so the problem exists only once the preset and the
+overrides are merged.  :func:`app.params.resolve_params` validates that merged set with
+``model_validate`` (so do the worker and the studies), and a malformed problem is a 422 naming
+``params.<path>`` before anything is stored; the body's own validation checks field shapes only.
+"""
+from __future__ import annotations
+
+from dataclasses import fields
+from typing import Any, Literal
+
+from pydantic import Field, PrivateAttr, field_validator
+from pydantic_core import PydanticCustomError, ValidationError
+
+from app.kinds.base import StrictModel
+
+NAME_PATTERN = r"^[A-Za-z_][A-Za-z0-9_]*$"
+MAX_NAME_CHARS = 64
+MAX_PLOT_PAIRS = 50
+
+# A bare JSON number is an expression too ("dynamics": {"x": 0}).
+Expression = str | float
+
+
+def _name(example: str):
+    return Field(description="Identifier (letters, digits, _; not starting with a digit) used in expressions; "
+                             "must not repeat another declared name or shadow a function or t, t0, tf, pi, "
+                             "initial, final", examples=[example], pattern=NAME_PATTERN,
+                 max_length=MAX_NAME_CHARS)
+
+
+def _num(description: str, example: Any = None):
+    return Field(None, description=description, examples=[example])
+
+
+class OcpState(StrictModel):
+    """A state: its boundary values (a number fixes it, null leaves it free), bounds over the whole
+    trajectory, and a typical magnitude for scaling."""
+
+    name: str = _name("x")
+    initial: float | None = _num("Value at t0; null: free", 0.0)
+    final: float | None = _num("Value at tf; null: free", 10.0)
+    lower: float | None = _num("Lower bound over the whole trajectory; null: none", None)
+    upper: float | None = _num("Upper bound over the whole trajectory; null: none", None)
+    scale: float | None = Field(None, gt=0, description="Typical magnitude (the NLP works in state/scale); "
+                                "null: from the bounds and boundary values", examples=[10.0])
+    unit: str | None = Field(None, max_length=32, description="Unit shown on plots and tables (free text)",
+                             examples=["m"])
+
+
+class OcpControl(StrictModel):
+    """A control: bounds and a typical magnitude."""
+
+    name: str = _name("theta")
+    lower: float | None = _num("Lower bound; null: none", 0.0)
+    upper: float | None = _num("Upper bound; null: none", 3.14159)
+    scale: float | None = Field(None, gt=0, description="Typical magnitude; null: from the bounds",
+                                examples=[1.0])
+    unit: str | None = Field(None, max_length=32, description="Unit shown on plots and tables (free text)",
+                             examples=["rad"])
+
+
+class OcpParameter(StrictModel):
+    """A static decision variable: a constant the optimizer chooses."""
+
+    name: str = _name("k")
+    lower: float | None = _num("Lower bound; null: none", 0.0)
+    upper: float | None = _num("Upper bound; null: none", 10.0)
+    guess: float | None = _num("Initial guess; null: from the bounds", 1.0)
+
+
+class OcpTable(StrictModel):
+    """Gridded data called in expressions as NAME(x) or NAME(x, y): a smooth B-spline interpolant."""
+
+    axes: list[list[float]] = Field(min_length=1, max_length=2, description="One or two axes, each strictly "
+                                    "increasing", examples=[[[0.0, 1.0, 2.0, 3.0]]])
+    values: list[float] = Field(description="Values at the grid points, row-major (the last axis fastest); "
+                                "len = product of the axes' lengths", examples=[[1.0, 0.5, 0.25, 0.125]])
+
+
+class OcpTime(StrictModel):
+    """The phase's time: fixed or free final time."""
+
+    initial: float = Field(0.0, description="t0 (s)", examples=[0.0])
+    final: float | None = Field(None, description="tf (s); null: free within final_lower..final_upper",
+                                examples=[None])
+    final_lower: float | None = _num("Lower bound of a free tf (s)", 0.1)
+    final_upper: float | None = _num("Upper bound of a free tf (s)", 10.0)
+    final_guess: float | None = _num("Initial guess of a free tf (s)", 2.0)
+
+
+class OcpConstraint(StrictModel):
+    """lower <= expr <= upper (give one or both; equal bounds make an equality)."""
+
+    expr: Expression = Field(description="An expression of the language", examples=["x - 2*y"])
+    lower: float | None = _num("Lower bound; null: none", 0.0)
+    upper: float | None = _num("Upper bound; null: none", None)
+    name: str | None = Field(None, pattern=NAME_PATTERN, max_length=MAX_NAME_CHARS,
+                             description="Name in the verification report; default path_<i> / boundary_<i>",
+                             examples=["ground"])
+
+
+class OcpObjective(StrictModel):
+    """Mayer term ``expr`` plus Lagrange ``integrand`` (at least one)."""
+
+    sense: Literal["minimize", "maximize"] = Field("minimize", description="minimize or maximize",
+                                                   examples=["minimize"])
+    expr: Expression | None = Field(None, description="Mayer term in initial(), final(), t0, tf, parameters "
+                                    "and constants", examples=["tf"])
+    integrand: Expression | None = Field(None, description="Lagrange integrand, integrated over the phase "
+                                         "(states, controls, t, expressions)", examples=[None])
+
+
+class OcpTranscription(StrictModel):
+    """How the problem becomes an NLP."""
+
+    method: Literal["multiple_shooting", "lgl"] = Field(
+        "multiple_shooting", description="multiple_shooting (RK4 substeps, as paper 000) or lgl "
+        "(Legendre-Gauss-Lobatto collocation, as paper 003)", examples=["multiple_shooting"])
+    intervals: int = Field(50, ge=1, description="Mesh intervals (capped by TRAJLAB_OCP_MAX_INTERVALS)",
+                           examples=[50])
+    control: Literal["linear", "constant"] = Field("linear", description="Control within an interval: "
+                                                   "linear between nodes or constant", examples=["linear"])
+    substeps: int = Field(2, ge=1, le=16, description="multiple_shooting: RK4 steps per interval",
+                          examples=[2])
+    nodes: int = Field(4, ge=2, le=12, description="lgl: collocation nodes per interval", examples=[4])
+    max_refinements: int = Field(8, ge=0, le=20, description="Mesh-refinement rounds at most when `accuracy` "
+                                 "is set", examples=[8])
+
+
+class OcpGuess(StrictModel):
+    """The initial guess: straight lines by default, or a stored ocp result."""
+
+    states: dict[str, list[float]] = Field(default_factory=dict, description="state name -> [first, last]: "
+                                           "a straight line", examples=[{"x": [0.0, 10.0]}])
+    controls: dict[str, list[float]] = Field(default_factory=dict, description="control name -> [first, "
+                                             "last]", examples=[{"theta": [0.1, 1.5]}])
+    tf: float | None = _num("Guess of a free final time (s)", 2.0)
+    from_job: str | None = Field(None, max_length=64, description="Warm start from this succeeded ocp job's "
+                                 "trajectory (interpolated onto the new grid)", examples=[None])
+
+    @field_validator("states", "controls")
+    @classmethod
+    def _pairs(cls, v: dict[str, list[float]]):
+        for name, pair in v.items():
+            if len(pair) != 2:
+                raise ValueError(f"{name}: give [first, last], two numbers")
+        return v
+
+
+class OcpParams(StrictModel):
+    """Your own optimal-control problem: declarations, expressions, constraints, objective (one phase)."""
+
+    title: str | None = Field(None, max_length=200, description="Free text shown in the console and report",
+                              examples=["Brachistochrone"])
+    constants: dict[str, float] = Field(default_factory=dict, description="name -> number, usable in every "
+                                        "expression", examples=[{"g": 9.80665}])
+    tables: dict[str, OcpTable] = Field(default_factory=dict, description="name -> gridded data, called as "
+                                        "NAME(x) or NAME(x, y)", examples=[{}])
+    states: list[OcpState] = Field(default_factory=list, description="The states, each with exactly one "
+                                   "dynamics entry", examples=[[{"name": "x", "initial": 0.0, "final": 10.0}]])
+    controls: list[OcpControl] = Field(default_factory=list, description="The controls",
+                                       examples=[[{"name": "theta", "lower": 0.0, "upper": 3.14159}]])
+    parameters: list[OcpParameter] = Field(default_factory=list, description="Static decision variables",
+                                           examples=[[]])
+    time: OcpTime = Field(default_factory=OcpTime, description="Initial and final time")
+    expressions: dict[str, Expression] = Field(
+        default_factory=dict, description="name -> expression, in order: each may use t, states, controls, "
+        "parameters, constants, tables and earlier expressions; reported along the trajectory",
+        examples=[{"speed": "sqrt(2*g*(10 - y))"}])
+    dynamics: dict[str, Expression] = Field(
+        default_factory=dict, description="state name -> its time derivative, exactly one per state",
+        examples=[{"x": "v*sin(theta)", "y": "-v*cos(theta)", "v": "g*cos(theta)"}])
+    path: list[OcpConstraint] = Field(default_factory=list, description="Constraints along the whole "
+                                      "trajectory; verified between the nodes", examples=[[]])
+    boundary: list[OcpConstraint] = Field(default_factory=list, description="Event constraints in initial(x), "
+                                          "final(x), t0, tf and parameters", examples=[[]])
+    objective: OcpObjective | None = Field(None, description="What to optimize (required once the preset and "
+                                           "your overrides are merged)", examples=[{"sense": "minimize",
+                                                                                    "expr": "tf"}])
+    transcription: OcpTranscription = Field(default_factory=OcpTranscription, description="Transcription")
+    guess: OcpGuess = Field(default_factory=OcpGuess, description="Initial guess or warm start")
+    accuracy: float | None = Field(None, gt=0, lt=1, description="Target relative error of the re-propagated "
+                                   "states (mesh refinement); null: the grid as given", examples=[None])
+    plots: list[list[str]] = Field(default_factory=list, max_length=MAX_PLOT_PAIRS,
+                                   description="Extra plots: pairs [x, y] of names (t, states, controls, "
+                                   "expressions), drawn besides every quantity against time",
+                                   examples=[[["x", "y"]]])
+
+    _problem: Any = PrivateAttr(None)
+
+    @classmethod
+    def model_validate(cls, obj: Any, **kwargs) -> "OcpParams":
+        """Field shapes, then the whole problem (:func:`check_problem`): see the module docstring."""
+        model = super().model_validate(obj, **kwargs)
+        model._problem = check_problem(model)
+        return model
+
+    @property
+    def problem(self):
+        """The parsed :class:`solvers.ocp.spec.OcpProblem` (parsed once by ``model_validate``)."""
+        if self._problem is None:
+            self._problem = check_problem(self)
+        return self._problem
+
+
+# --- the whole-problem check ----------------------------------------------------------------------
+SETTING_PREFIX = "TRAJLAB_OCP_"
+
+
+def _settings(settings=None):
+    if settings is None:
+        from app.settings import get_settings
+
+        settings = get_settings()
+    return settings
+
+
+def limits(settings=None):
+    """The :class:`solvers.ocp.spec.OcpLimits` of the service settings (``TRAJLAB_OCP_MAX_*``)."""
+    from solvers.ocp.spec import OcpLimits
+
+    settings = _settings(settings)
+    values = {f.name: getattr(settings, f"ocp_{f.name}") for f in fields(OcpLimits)
+              if hasattr(settings, f"ocp_{f.name}")}
+    return OcpLimits(**values)
+
+
+def _setting_of(reason: str) -> str:
+    """The reason with the setting that raises each limit it names (``max_states`` ->
+    ``TRAJLAB_OCP_MAX_STATES``), so a 422 says what to change."""
+    from solvers.ocp.spec import OcpLimits
+
+    named = [f.name for f in fields(OcpLimits) if f.name in reason]
+    # longest first: max_expression_nodes before a shorter name it contains
+    named = [n for n in sorted(named, key=len, reverse=True)
+             if not any(n != m and n in m for m in named)]
+    settings = [SETTING_PREFIX + n.upper() for n in named if SETTING_PREFIX + n.upper() not in reason]
+    return f"{reason} (setting {', '.join(settings)})" if settings else reason
+
+
+def _loc(path: str) -> tuple:
+    parts = [p for p in path.split(".") if p]
+    if parts and parts[0] == "params":
+        parts = parts[1:]
+    return tuple(int(p) if p.isdigit() else p for p in parts)
+
+
+def _get(data: Any, loc: tuple) -> Any:
+    for part in loc:
+        if isinstance(data, dict) and part in data:
+            data = data[part]
+        elif isinstance(data, list) and isinstance(part, int) and part < len(data):
+            data = data[part]
+        else:
+            return None
+    return data
+
+
+def _fail(loc: tuple, reason: str, data: dict):
+    raise ValidationError.from_exception_data("OcpParams", [{
+        "type": PydanticCustomError("ocp_problem", "{reason}", {"reason": reason}),
+        "loc": loc, "input": _get(data, loc)}])
+
+
+def check_problem(params: OcpParams, settings=None):
+    """Parse the whole problem with the service's limits; a ``ValidationError`` located at the field
+    the parser names (``dynamics.v``), its message the reason, and the setting for a limit."""
+    from solvers.ocp.spec import OcpInputError, parse_problem
+
+    data = params.model_dump(mode="json")
+    try:
+        return parse_problem(data, limits(settings))
+    except OcpInputError as exc:
+        _fail(_loc(exc.path), _setting_of(str(exc.reason)), data)
+    except RecursionError:   # defence in depth: the parser bounds its recursion by the node limit
+        _fail((), "the problem is nested too deeply", data)

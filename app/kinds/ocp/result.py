@@ -1,0 +1,98 @@
+"""The result of an ``ocp`` job (``shared/specs/ocp.md``, "Result"): its typed model and its builder.
+
+The names of the user's states, controls and expressions are the keys of ``initial``, ``final``,
+``parameters`` and ``trajectory``, so those blocks are maps (``dict[str, number]``,
+``dict[str, series]``) rather than fixed fields.  Every number goes through
+:func:`app.kinds.base.json_value`: a non-finite value is ``null``.
+"""
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from pydantic import Field
+
+from app.kinds.base import json_float, json_value
+from app.kinds.result_models import Num, ResultModel, Series
+
+
+class OcpResultObjective(ResultModel):
+    """The optimized objective, in the user's sense (a maximum is reported as the positive maximum)."""
+
+    value: Num = Field(description="Optimal value of expr + integral of integrand (the user's units)")
+    sense: Literal["minimize", "maximize"] = Field(description="minimize or maximize, as posed")
+
+
+class OcpResultSolver(ResultModel):
+    """How the problem was solved: transcription, NLP solver status, iterations and times."""
+
+    method: str | None = Field(None, description="Transcription: multiple_shooting or lgl")
+    intervals: int | None = Field(None, description="Mesh intervals")
+    status: str = Field(description="The NLP solver's own status word, e.g. IPOPT's Solve_Succeeded")
+    outcome: str | None = Field(None, description="What became of the solve: optimal, infeasible, "
+                                "not_converged, limit_not_held, cancelled, failed")
+    message: str | None = Field(None, description="The solver's message")
+    iterations: int = Field(description="NLP iterations, all solves")
+    build_time_s: Num = Field(description="Time to build the NLP (s); ~0 when the structure was cached")
+    solve_time_s: Num = Field(description="Time in the NLP solver (s)")
+    max_constraint_violation: Num = Field(description="Worst constraint violation at the solution (NLP units)")
+
+
+class OcpResult(ResultModel):
+    """Result of an ``ocp`` job: the optimal trajectory of your problem, its solve and its independent
+    verification (the controls re-flown by another integrator on a dense grid)."""
+
+    title: str | None = Field(None, description="The problem's title, as posed")
+    objective: OcpResultObjective = Field(description="The optimized objective")
+    t0: Num = Field(description="Initial time (s)")
+    tf: Num = Field(description="Final time (s)")
+    initial: dict[str, Num] = Field(description="state name -> value at t0")
+    final: dict[str, Num] = Field(description="state name -> value at tf")
+    parameters: dict[str, Num] = Field(description="parameter name -> optimal value")
+    trajectory: dict[str, Series] = Field(description="`t` and every state, control and expression at the "
+                                          "nodes, equal-length arrays; null where not finite")
+    units: dict[str, str] = Field(default_factory=dict, description="name -> unit, for the names declared "
+                                  "with one")
+    verification: dict[str, Any] | None = Field(
+        description="The controls re-flown by an independent integrator on a dense grid: the largest state "
+        "difference per state (scaled and absolute), the worst value of each path constraint on that grid "
+        "against its bounds, and whether every limit held; null when not run")
+    solver: OcpResultSolver = Field(description="Transcription and NLP solver account")
+    plots: list[list[str]] = Field(default_factory=list, description="The extra plot pairs [x, y] asked for")
+    warm_start: str | None = Field(None, description="The job this solve was warm-started from")
+    wall_time_s: Num = Field(None, description="Wall time of the job's run (s)")
+    notes: list[str] = Field(description="How the answer was obtained and what to keep in mind")
+
+
+def _map(d) -> dict:
+    return {str(k): json_float(v) if v is not None else None for k, v in (d or {}).items()}
+
+
+def build_result(sol, params, *, wall_time_s: float, warm_start: str | None = None) -> dict:
+    """The JSON result of an :class:`solvers.ocp.OcpSolution` (plain floats and lists)."""
+    s = sol.status
+    solver = dict(json_value(getattr(sol, "solver", None) or {}))
+    solver.setdefault("method", params.transcription.method)
+    solver.setdefault("intervals", params.transcription.intervals)
+    solver.update({"status": s.solver_status, "outcome": s.outcome.value, "message": s.message or None,
+                   "iterations": int(s.iterations), "build_time_s": json_float(s.build_time_s),
+                   "solve_time_s": json_float(s.solve_time_s),
+                   "max_constraint_violation": json_float(s.max_constraint_violation)})
+    units = {d.name: d.unit for d in (*params.states, *params.controls) if d.unit}
+    return {
+        "title": params.title,
+        "objective": {"value": json_float(sol.objective) if sol.objective is not None else None,
+                      "sense": sol.sense or (params.objective.sense if params.objective else "minimize")},
+        "t0": json_float(sol.t0) if sol.t0 is not None else None,
+        "tf": json_float(sol.tf) if sol.tf is not None else None,
+        "initial": _map(sol.initial),
+        "final": _map(sol.final),
+        "parameters": _map(sol.parameters),
+        "trajectory": {str(k): json_value(v) for k, v in (sol.trajectory or {}).items()},
+        "units": units,
+        "verification": json_value(sol.verification) if sol.verification is not None else None,
+        "solver": solver,
+        "plots": [list(p) for p in params.plots],
+        "warm_start": warm_start,
+        "wall_time_s": json_float(wall_time_s),
+        "notes": [str(n) for n in (getattr(sol, "notes", None) or [])],
+    }
