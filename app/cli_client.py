@@ -165,7 +165,8 @@ def add_commands(sub) -> None:
     p.add_argument("--preset")
     p.add_argument("--set", action="append", metavar="PATH=VALUE",
                    help="override one parameter, e.g. --set grid.intervals=50 (repeatable; JSON values)")
-    p.add_argument("--params", metavar="FILE", help="a JSON file of parameters (--set applies on top)")
+    p.add_argument("--params", "--file", dest="params", metavar="FILE",
+                   help="a JSON file of parameters, e.g. an ocp problem (--set applies on top)")
     p.add_argument("--label")
     p.add_argument("--wait", action="store_true")
     p.add_argument("--quiet", action="store_true", help="no progress output")

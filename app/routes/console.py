@@ -30,8 +30,14 @@ router = APIRouter(include_in_schema=False)
 
 
 
+# Kinds whose parameters are a document (a problem written as data: names, expressions, lists) rather
+# than a set of settings: "New job" edits them as JSON in a text area instead of a form of fields.
+JSON_EDITOR_KINDS = frozenset({"ocp"})
+
+
 def _page(request: Request, name: str, **context) -> HTMLResponse:
-    kinds = {k: {"summary": s.summary, "presets": [p.name for p in s.presets]} for k, s in KINDS.items()}
+    kinds = {k: {"summary": s.summary, "presets": [p.name for p in s.presets], "json": k in JSON_EDITOR_KINDS}
+             for k, s in KINDS.items()}
     return templates.TemplateResponse(request, name, {"kinds": kinds, "warm_fields": WARM_START_FIELD,
                                                       **context})
 

@@ -27,6 +27,15 @@ class OcpResultSolver(ResultModel):
 
     method: str | None = Field(None, description="Transcription: multiple_shooting or lgl")
     intervals: int | None = Field(None, description="Mesh intervals")
+    control: str | None = Field(None, description="Control within an interval: linear, constant (multiple "
+                                "shooting) or polynomial (LGL)")
+    substeps: int | None = Field(None, description="multiple_shooting: RK4 steps per interval")
+    nodes_per_interval: int | None = Field(None, description="lgl: collocation nodes per interval")
+    cached_build: bool | None = Field(None, description="The NLP of this structure came from the per-process "
+                                      "cache (build time ~0)")
+    limit_rounds: list[dict[str, Any]] | None = Field(
+        None, description="Rounds of tightening path limits that the dense re-flight found exceeded between "
+        "the nodes, each re-solved warm (empty: none needed)")
     status: str = Field(description="The NLP solver's own status word, e.g. IPOPT's Solve_Succeeded")
     outcome: str | None = Field(None, description="What became of the solve: optimal, infeasible, "
                                 "not_converged, limit_not_held, cancelled, failed")
@@ -35,6 +44,37 @@ class OcpResultSolver(ResultModel):
     build_time_s: Num = Field(description="Time to build the NLP (s); ~0 when the structure was cached")
     solve_time_s: Num = Field(description="Time in the NLP solver (s)")
     max_constraint_violation: Num = Field(description="Worst constraint violation at the solution (NLP units)")
+
+
+class OcpResultPathCheck(ResultModel):
+    """One path constraint on the dense re-flight: its worst values against its bounds."""
+
+    lower: Num = Field(None, description="Lower bound (null: none)")
+    upper: Num = Field(None, description="Upper bound (null: none)")
+    min: Num = Field(None, description="Smallest value on the dense grid")
+    max: Num = Field(None, description="Largest value on the dense grid")
+    worst_t: Num = Field(None, description="Time of the worst value (s)")
+    excess_scaled: Num = Field(None, description="Worst excess over a bound divided by `scale` (<= 0: within)")
+    scale: Num = Field(None, description="The constraint's typical magnitude used to scale the excess")
+    held: bool | None = Field(None, description="Within the bounds to the tolerance on the whole dense grid")
+
+
+class OcpResultVerification(ResultModel):
+    """The controls re-flown by an independent integrator on a dense grid, against the solution."""
+
+    method: str | None = Field(None, description="Integrator and tolerances of the re-flight")
+    samples_per_interval: int | None = Field(None, description="Dense points per mesh interval")
+    max_state_difference: dict[str, Num] | None = Field(
+        None, description="state name -> largest |re-flown - solution| over the nodes (the state's unit)")
+    max_state_difference_scaled: dict[str, Num] | None = Field(
+        None, description="state name -> the same divided by the state's scale")
+    max_state_difference_scaled_overall: Num = Field(None, description="Largest scaled difference of any state")
+    path: dict[str, OcpResultPathCheck] | None = Field(None, description="path constraint name -> its check "
+                                                       "on the dense grid")
+    limits_held: bool | None = Field(None, description="Every path constraint held on the dense grid")
+    limit_tolerance: Num = Field(None, description="Scaled excess still counted as held")
+    ok: bool | None = Field(None, description="The integrator reached the final time")
+    message: str | None = Field(None, description="The integrator's message (empty when ok)")
 
 
 class OcpResult(ResultModel):
@@ -52,7 +92,7 @@ class OcpResult(ResultModel):
                                           "nodes, equal-length arrays; null where not finite")
     units: dict[str, str] = Field(default_factory=dict, description="name -> unit, for the names declared "
                                   "with one")
-    verification: dict[str, Any] | None = Field(
+    verification: OcpResultVerification | None = Field(
         description="The controls re-flown by an independent integrator on a dense grid: the largest state "
         "difference per state (scaled and absolute), the worst value of each path constraint on that grid "
         "against its bounds, and whether every limit held; null when not run")

@@ -226,6 +226,64 @@ const Console = (() => {
     text($("#form-error"), loose.length ? loose.join("\n") : (detail.length ? "" : err.message));
   }
 
+  // ---- new job for a kind whose parameters are a document (ocp): a JSON editor ----------------------
+  // JSON.stringify(value, null, 2), plus the line of every path ("dynamics.v", "states.2.final").
+  function pretty(value) {
+    const lines = [], at = {};
+    function emit(v, path, indent, prefix, suffix) {
+      at[path] = lines.length;
+      const pad = "  ".repeat(indent);
+      if (v !== null && typeof v === "object") {
+        const list = Array.isArray(v);
+        const entries = list ? v.map((x, i) => [i, x]) : Object.entries(v);
+        const [open, close] = list ? ["[", "]"] : ["{", "}"];
+        if (!entries.length) { lines.push(pad + prefix + open + close + suffix); return; }
+        lines.push(pad + prefix + open);
+        entries.forEach(([k, x], i) => emit(x, path === "" ? String(k) : path + "." + k, indent + 1,
+                                            list ? "" : JSON.stringify(k) + ": ", i < entries.length - 1 ? "," : ""));
+        lines.push(pad + close + suffix);
+      } else lines.push(pad + prefix + JSON.stringify(v) + suffix);
+    }
+    emit(value, "", 0, "", "");
+    return { text: lines.join("\n"), at };
+  }
+
+  function selectLine(area, line) {
+    const lines = area.value.split("\n");
+    const start = lines.slice(0, line).reduce((n, l) => n + l.length + 1, 0);
+    area.focus();
+    area.setSelectionRange(start, start + (lines[line] || "").length);
+    area.scrollTop = Math.max(0, line - 5) * (area.scrollHeight / Math.max(1, lines.length));
+  }
+
+  // Each 422 under the editor, with the line of the field it names (or of its nearest named parent).
+  function showJsonErrors(kind, err, at) {
+    const list = $("#json-errors"), area = $("#params-json");
+    list.innerHTML = "";
+    const detail = (err.body && Array.isArray(err.body.detail)) ? err.body.detail : [];
+    let first = null;
+    for (const d of detail) {
+      let loc = (d.loc || []).map(String);
+      if (loc[0] === "body") loc = loc.slice(1);
+      if (loc[0] === kind) loc = loc.slice(1);
+      if (loc[0] === "params") loc = loc.slice(1);
+      let n = loc.length;
+      while (n > 0 && at[loc.slice(0, n).join(".")] === undefined) n--;
+      const line = n > 0 ? at[loc.slice(0, n).join(".")] : null;
+      const li = document.createElement("li");
+      const code = document.createElement("code");
+      code.textContent = "params" + (loc.length ? "." + loc.join(".") : "");
+      li.append(code, document.createTextNode((line !== null ? ` (line ${line + 1})` : "") + ": " + (d.msg || "")));
+      if (line !== null) {
+        li.onclick = () => selectLine(area, line);
+        if (first === null) first = line;
+      }
+      list.appendChild(li);
+    }
+    if (!detail.length) text($("#form-error"), err.message);
+    if (first !== null) selectLine(area, first);
+  }
+
   async function newJob() {
     showKeyStatus();
     const { presets, kinds, warmFields } = window.TRAJLAB;
@@ -235,12 +293,22 @@ const Console = (() => {
       presetSel.innerHTML = "";
       for (const name of kinds[kindSel.value].presets) presetSel.add(new Option(name, name));
     }
+    const area = $("#params-json");
+    let at = {};
+    const isJson = () => Boolean(kinds[kindSel.value] && kinds[kindSel.value].json);
+    function showParams(values) {  // a form of fields, or the JSON editor for a document kind
+      params.innerHTML = "";
+      $("#json-errors").innerHTML = "";
+      $("#json-editor").hidden = !isJson();
+      params.hidden = isJson();
+      if (isJson()) ({ text: area.value, at } = pretty(values));
+      else buildFields(params, values, "");
+    }
     async function loadPreset() {
       clearErrors();
       text($("#preset-description"), presets[presetSel.value] ? presets[presetSel.value].description : "");
       const p = await getJSON("/v1/presets/" + encodeURIComponent(presetSel.value));
-      params.innerHTML = "";
-      buildFields(params, p.params, "");
+      showParams(p.params);
     }
     kindSel.onchange = async () => { fillPresets(); await loadPreset(); };
     presetSel.onchange = loadPreset;
@@ -252,7 +320,7 @@ const Console = (() => {
       text($("#preset-description"), presets[presetSel.value] ? presets[presetSel.value].description : "");
       const p = JSON.parse(JSON.stringify(job.params));
       if (q.get("warm") && warmFields[job.kind]) setByPath(p, warmFields[job.kind], job.id);
-      buildFields(params, p, "");
+      showParams(p);
       $("#label").value = job.label || "";
     } else {
       if (q.get("kind") && kinds[q.get("kind")]) kindSel.value = q.get("kind");
@@ -262,15 +330,27 @@ const Console = (() => {
     $("#new-job").onsubmit = async (e) => {
       e.preventDefault();
       clearErrors();
-      const body = { kind: kindSel.value, params: collect(params) };
-      if (presetSel.value) body.preset = presetSel.value;
+      let body;
+      if (isJson()) {
+        $("#json-errors").innerHTML = "";
+        let values;
+        try { values = JSON.parse(area.value); } catch (e) { text($("#form-error"), "params: not valid JSON: " + e.message); return; }
+        ({ text: area.value, at } = pretty(values));  // one layout, so each error's line is known
+        // the text is the whole problem: no preset under it (a deep merge would bring back what was deleted)
+        body = { kind: kindSel.value, params: values };
+      } else {
+        body = { kind: kindSel.value, params: collect(params) };
+        if (presetSel.value) body.preset = presetSel.value;
+      }
       if ($("#label").value) body.label = $("#label").value;
       try {
         const job = await (await api("/v1/jobs", { method: "POST", body: JSON.stringify(body),
                                                     headers: { "Content-Type": "application/json" } })).json();
         location.href = "/jobs/" + job.id;
       } catch (err) {
-        if (err.status === 422) showErrors(kindSel.value, err); else text($("#form-error"), err.message);
+        if (err.status === 422 && isJson()) showJsonErrors(kindSel.value, err, at);
+        else if (err.status === 422) showErrors(kindSel.value, err);
+        else text($("#form-error"), err.message);
       }
     };
   }
