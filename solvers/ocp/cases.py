@@ -1,1 +1,187 @@
-PRESETS: dict[str, dict] = {}
+"""Presets of the ``ocp`` kind: classic optimal-control problems with published optima, as spec bodies.
+
+Each entry of :data:`PRESETS` is ``{"description", "optimum", "tolerance", "params"}``: ``params``
+is a complete ``params`` body of ``../shared/specs/ocp.md``; ``optimum`` the published value of
+the objective in the user's sense; ``tolerance`` the absolute difference a test allows on the
+preset's own grid, with the reason in the description.  Standard library only (the API lists
+the presets without loading numpy).
+
+The Betts shuttle is written in Betts' English units; its numbers are those of the ``reentry``
+kind's ``betts-max-crossrange`` preset (``solvers/models/shuttle.py``, ``reentry.md``): the same
+vehicle, atmosphere, planet, boundary conditions, bounds and grid (100 intervals, linear
+controls, 2 RK4 steps per interval), so that both kinds must agree.
+"""
+from __future__ import annotations
+
+import math
+
+DEG = math.pi / 180.0
+
+BRACHISTOCHRONE = {
+    "title": "Brachistochrone: the wire of fastest descent from (0, 10) m to (10, 5) m",
+    "constants": {"g": 9.80665},
+    "states": [
+        {"name": "x", "initial": 0.0, "final": 10.0, "unit": "m"},
+        {"name": "y", "initial": 10.0, "final": 5.0, "unit": "m"},
+        {"name": "v", "initial": 0.0, "lower": 0.0, "scale": 10.0, "unit": "m/s"},
+    ],
+    "controls": [{"name": "theta", "lower": 0.0, "upper": math.pi, "unit": "rad"}],
+    "time": {"initial": 0.0, "final": None, "final_lower": 0.5, "final_upper": 10.0, "final_guess": 2.0},
+    "dynamics": {"x": "v*sin(theta)", "y": "-v*cos(theta)", "v": "g*cos(theta)"},
+    "objective": {"sense": "minimize", "expr": "tf"},
+    "transcription": {"method": "multiple_shooting", "intervals": 50, "control": "linear"},
+    "guess": {"states": {"v": [0.0, 9.9]}, "controls": {"theta": [0.1, 1.75]}},
+}
+
+# Betts, Practical Methods for Optimal Control, 2nd ed., sec. 6.3, eqs. 6.93-6.101 (English units).
+BETTS_SHUTTLE = {
+    "title": "Space Shuttle reentry, maximum crossrange (Betts sec. 6.3)",
+    "constants": {
+        "mu": 0.14076539e17, "Re": 20902900.0, "S": 2690.0, "mass": 203000.0 / 32.174,
+        "rho0": 0.002378, "hr": 23800.0,
+        "a0": -0.20704, "a1": 0.029244, "b0": 0.07854, "b1": -0.61592e-2, "b2": 0.621408e-3,
+        "c0": 1.0672181, "c1": -0.19213774e-1, "c2": 0.21286289e-3, "c3": -0.10117249e-5,
+    },
+    "states": [
+        {"name": "h", "initial": 260000.0, "final": 80000.0, "lower": 0.0, "upper": 400000.0,
+         "scale": 1e5, "unit": "ft"},
+        {"name": "lon", "initial": 0.0, "scale": 1.0, "unit": "rad"},
+        {"name": "lat", "initial": 0.0, "lower": -89 * DEG, "upper": 89 * DEG, "scale": 1.0, "unit": "rad"},
+        {"name": "v", "initial": 25600.0, "final": 2500.0, "lower": 100.0, "upper": 40000.0,
+         "scale": 1e4, "unit": "ft/s"},
+        {"name": "gamma", "initial": -1 * DEG, "final": -5 * DEG, "lower": -89 * DEG, "upper": 89 * DEG,
+         "scale": 1.0, "unit": "rad"},
+        {"name": "psi", "initial": 90 * DEG, "scale": 1.0, "unit": "rad"},
+    ],
+    "controls": [
+        {"name": "alpha", "lower": -90 * DEG, "upper": 90 * DEG, "scale": 1.0, "unit": "rad"},
+        {"name": "beta", "lower": -90 * DEG, "upper": 1 * DEG, "scale": 1.0, "unit": "rad"},
+    ],
+    "time": {"initial": 0.0, "final": None, "final_lower": 100.0, "final_upper": 10000.0},
+    "expressions": {
+        "r": "Re + h",
+        "rho": "rho0*exp(-h/hr)",
+        "a_deg": "alpha*180/pi",
+        "CL": "a0 + a1*a_deg",
+        "CD": "b0 + b1*a_deg + b2*a_deg**2",
+        "qbar": "0.5*rho*v**2",
+        "lift": "qbar*S*CL",
+        "drag": "qbar*S*CD",
+        "grav": "mu/r**2",
+        "heat_rate": "(c0 + c1*a_deg + c2*a_deg**2 + c3*a_deg**3)*17700*sqrt(rho)*(0.0001*v)**3.07",
+    },
+    "dynamics": {
+        "h": "v*sin(gamma)",
+        "lon": "v*cos(gamma)*sin(psi)/(r*cos(lat))",
+        "lat": "v*cos(gamma)*cos(psi)/r",
+        "v": "-drag/mass - grav*sin(gamma)",
+        "gamma": "lift*cos(beta)/(mass*v) + cos(gamma)*(v/r - grav/v)",
+        "psi": "lift*sin(beta)/(mass*v*cos(gamma)) + v*cos(gamma)*sin(psi)*sin(lat)/(r*cos(lat))",
+    },
+    "objective": {"sense": "maximize", "expr": "final(lat)*180/pi"},
+    "transcription": {"method": "multiple_shooting", "intervals": 100, "control": "linear", "substeps": 2},
+    # The reentry kind's straight-line guess (solvers/reentry guess "linear"): tf 2000 s, alpha 17
+    # deg, bank -60 deg, longitude to 1.2 rad, latitude to 0.5 rad, heading to 0.
+    "guess": {"tf": 2000.0, "states": {"lon": [0.0, 1.2], "lat": [0.0, 0.5], "psi": [90 * DEG, 0.0]},
+              "controls": {"alpha": [17 * DEG, 17 * DEG], "beta": [-60 * DEG, -60 * DEG]}},
+}
+
+# Bryson & Ho, Applied Optimal Control (1975), sec. 3.11, example 1: state inequality x <= l.
+BRYSON_DENHAM = {
+    "title": "Bryson-Denham: double integrator with a state limit x <= 1/9",
+    "constants": {"l": 1.0 / 9.0},
+    "states": [{"name": "x", "initial": 0.0, "final": 0.0, "scale": 0.1},
+               {"name": "v", "initial": 1.0, "final": -1.0}],
+    "controls": [{"name": "u", "scale": 10.0}],
+    "time": {"initial": 0.0, "final": 1.0},
+    "dynamics": {"x": "v", "v": "u"},
+    "path": [{"name": "x_limit", "expr": "x", "upper": 1.0 / 9.0}],
+    "objective": {"sense": "minimize", "integrand": "0.5*u**2"},
+    "transcription": {"method": "multiple_shooting", "intervals": 90, "control": "linear", "substeps": 2},
+}
+
+# COPS 3.0 (Dolan, More, Munson, ANL/MCS-TM-273, 2004), problem 10 "Goddard rocket", after
+# Bryson (1999): nondimensional h0 = m0 = g0 = 1.
+GODDARD = {
+    "title": "Goddard rocket: maximum altitude (COPS 3.0 problem 10)",
+    "constants": {"Tmax": 3.5, "Dc": 310.0, "hc": 500.0, "c": 0.5},
+    "states": [{"name": "h", "initial": 1.0, "lower": 1.0},
+               {"name": "v", "initial": 0.0, "lower": 0.0, "scale": 0.1},
+               {"name": "m", "initial": 1.0, "final": 0.6, "lower": 0.6, "upper": 1.0}],
+    "controls": [{"name": "T", "lower": 0.0, "upper": 3.5}],
+    "time": {"initial": 0.0, "final": None, "final_lower": 0.01, "final_upper": 1.0, "final_guess": 0.2},
+    "expressions": {"drag": "Dc*v**2*exp(-hc*(h - 1))", "grav": "1/h**2"},
+    "dynamics": {"h": "v", "v": "(T - drag)/m - grav", "m": "-T/c"},
+    "objective": {"sense": "maximize", "expr": "final(h)"},
+    "transcription": {"method": "multiple_shooting", "intervals": 100, "control": "constant", "substeps": 2},
+    "guess": {"states": {"h": [1.0, 1.01], "v": [0.0, 0.05], "m": [1.0, 0.6]},
+              "controls": {"T": [1.75, 1.75]}},
+}
+
+# COPS 3.0 problem 11 "Hang glider" (after Bulirsch, Nerz, Pesch, von Stryk 1993).
+HANG_GLIDER = {
+    "title": "Hang glider: maximum range through a thermal (COPS 3.0 problem 11)",
+    "constants": {"uc": 2.5, "r0": 100.0, "um": 2.5, "mass": 100.0, "g": 9.81, "c0": 0.034,
+                  "c1": 0.069662, "S": 14.0, "rho": 1.13},
+    "states": [{"name": "x", "initial": 0.0, "lower": 0.0, "scale": 1000.0, "unit": "m"},
+               {"name": "y", "initial": 1000.0, "final": 900.0, "scale": 1000.0, "unit": "m"},
+               {"name": "vx", "initial": 13.2275675, "final": 13.2275675, "lower": 0.0, "scale": 10.0,
+                "unit": "m/s"},
+               {"name": "vy", "initial": -1.28750052, "final": -1.28750052, "scale": 1.0, "unit": "m/s"}],
+    "controls": [{"name": "CL", "lower": 0.0, "upper": 1.4}],
+    "time": {"initial": 0.0, "final": None, "final_lower": 10.0, "final_upper": 200.0, "final_guess": 100.0},
+    "expressions": {
+        "X": "(x/r0 - 2.5)**2",
+        "ua": "uc*(1 - X)*exp(-X)",
+        "Vy": "vy - ua",
+        "vr": "sqrt(vx**2 + Vy**2)",
+        "CD": "c0 + c1*CL**2",
+        "drag": "0.5*CD*rho*S*vr**2",
+        "lift": "0.5*CL*rho*S*vr**2",
+    },
+    "dynamics": {"x": "vx", "y": "vy",
+                 "vx": "(-lift*Vy/vr - drag*vx/vr)/mass",
+                 "vy": "(lift*vx/vr - drag*Vy/vr - mass*g)/mass"},
+    "objective": {"sense": "maximize", "expr": "final(x)"},
+    "transcription": {"method": "multiple_shooting", "intervals": 100, "control": "linear", "substeps": 2},
+    "guess": {"states": {"x": [0.0, 1250.0], "vx": [13.2275675, 13.2275675], "vy": [-1.28750052, -1.28750052]},
+              "controls": {"CL": [0.7, 0.7]}},
+}
+
+PRESETS: dict[str, dict] = {
+    "brachistochrone": {
+        "description": "Brachistochrone (the Dymos and GPOPS-II example): a bead slides without friction "
+                       "from (0, 10) m at rest to x = 10 m, y = 5 m under g = 9.80665 m/s^2; the control is "
+                       "the wire's angle from the downward vertical. Published minimum time 1.8016 s "
+                       "(Dymos docs, GPOPS-II manual). Tolerance 1e-4 s: 50 intervals of RK4 with linear "
+                       "controls give 1.80160 s.",
+        "optimum": 1.8016, "tolerance": 1e-4, "params": BRACHISTOCHRONE},
+    "betts-shuttle-ocp": {
+        "description": "Space Shuttle reentry, maximum crossrange: Betts, Practical Methods for Optimal "
+                       "Control, 2nd ed., sec. 6.3 (no heating limit), written as ocp expressions in Betts' "
+                       "English units (aero polynomials in alpha degrees, exponential atmosphere, spherical "
+                       "non-rotating Earth; the heating rate is reported as an expression). Betts: 34.1412 "
+                       "deg, tf 2008.59 s; the reentry kind's betts-max-crossrange on the same grid (100 "
+                       "intervals, linear controls, 2 RK4 steps): 34.14118 deg. Tolerance 0.01 deg.",
+        "optimum": 34.1412, "tolerance": 0.01, "params": BETTS_SHUTTLE},
+    "bryson-denham": {
+        "description": "Bryson-Denham problem: Bryson & Ho, Applied Optimal Control (1975), sec. 3.11: "
+                       "x' = v, v' = u, x(0) = x(1) = 0, v(0) = -v(1) = 1, minimize int u^2/2 dt with the "
+                       "state limit x <= l = 1/9. Analytic optimum J = 4/(9 l) = 4 (the limit is touched on "
+                       "[3l, 1 - 3l]). Tolerance 2e-3: the corners of u at t = 1/3 and 2/3 fall on nodes "
+                       "of the 90-interval grid, and the limit is held between the nodes.",
+        "optimum": 4.0, "tolerance": 2e-3, "params": BRYSON_DENHAM},
+    "goddard-rocket": {
+        "description": "Goddard rocket, maximum altitude: COPS 3.0 (Dolan, More & Munson 2004) problem 10, "
+                       "after Bryson, Dynamic Optimization (1999); nondimensional (h0 = m0 = g0 = 1, "
+                       "Tmax = 3.5, final mass 0.6, drag 310 v^2 exp(-500 (h - 1))). Published final "
+                       "altitude 1.01283. Tolerance 1e-4: the optimum has a singular thrust arc, which "
+                       "piecewise-constant thrust on 100 intervals resolves to about 1e-5.",
+        "optimum": 1.01283, "tolerance": 1e-4, "params": GODDARD},
+    "hang-glider": {
+        "description": "Hang glider, maximum range through a thermal updraft: COPS 3.0 (Dolan, More & "
+                       "Munson 2004) problem 11, after Bulirsch, Nerz, Pesch & von Stryk (1993). Published "
+                       "final range 1248.03 m. Tolerance 0.5 m: the lift-coefficient history has sharp "
+                       "turns near the thermal that 100 intervals resolve to a few tenths of a metre.",
+        "optimum": 1248.03, "tolerance": 0.5, "params": HANG_GLIDER},
+}
