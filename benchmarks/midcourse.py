@@ -33,7 +33,7 @@ from scipy.integrate import solve_ivp  # noqa: E402
 from app.kinds.midcourse import PRESETS, run  # noqa: E402
 from app.kinds.base import InProcessContext  # noqa: E402
 from benchmarks.results import write_results  # noqa: E402
-from app.kinds.midcourse_params import MidcourseParams  # noqa: E402
+from app.kinds.midcourse.params import MidcourseParams  # noqa: E402
 import solvers.midcourse as midcourse  # noqa: E402
 from solvers.astro.j2 import j2_rhs  # noqa: E402
 from solvers.astro.lambert import lambert  # noqa: E402

@@ -25,7 +25,7 @@ REPEATS = 3
 
 def _mars_problem() -> ReentryProblem:
     from app.kinds import KINDS, PRESETS
-    from app.kinds.reentry_edge import to_problem
+    from app.kinds.reentry.edge import to_problem
     spec = KINDS["reentry"]
     return to_problem(spec.params_model.model_validate(PRESETS["mars-msl-max-crossrange"].params))
 

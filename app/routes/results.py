@@ -19,8 +19,9 @@ from app import jobs
 from app.access import PrincipalDep, visible_job
 from app.deps import DatabaseDep
 from app.results import plots as plot_defs
-from app.results.midcourse_oem import default_point, midcourse_to_oem
-from app.results.oem import has_oem, to_oem
+from app.kinds.midcourse.oem import default_point, midcourse_to_oem
+from app.kinds.intercept.oem import to_oem
+from app.results.oem import has_oem
 from app.schemas import ErrorBody
 from app.results.report import render_report
 from app.results.tables import tables_for, to_csv

@@ -1,10 +1,10 @@
 """/v1/vehicles: the named vehicles a reentry job may fly (``params.vehicle.preset``), with their
-data, planet and atmosphere in API units (:mod:`app.kinds.vehicle_params`)."""
+data, planet and atmosphere in API units (:mod:`app.kinds.reentry.vehicle`)."""
 from __future__ import annotations
 
 from fastapi import APIRouter, HTTPException
 
-from app.kinds.vehicle_params import VehicleOut, vehicle_out
+from app.kinds.reentry.vehicle import VehicleOut, vehicle_out
 from app.schemas import ErrorBody
 from solvers.models.vehicles import VEHICLES
 

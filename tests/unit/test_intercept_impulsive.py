@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from app.kinds.intercept import PRESETS, SPEC, run, to_problem
-from app.kinds.intercept_params import InterceptParams
+from app.kinds.intercept.params import InterceptParams
 from solvers.astro.elements import Elements, elements_to_state, state_to_elements
 from solvers.astro.kepler import propagate
 from solvers.common import Outcome

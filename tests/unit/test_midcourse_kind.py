@@ -5,7 +5,7 @@ import pytest
 from pydantic import ValidationError
 
 from app.kinds.midcourse import PRESETS, SPEC, run
-from app.kinds.midcourse_params import MidcourseParams
+from app.kinds.midcourse.params import MidcourseParams
 from app.params import deep_merge
 from tests.support import RecordingContext
 

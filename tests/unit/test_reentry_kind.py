@@ -6,7 +6,7 @@ import pytest
 from pydantic import ValidationError
 
 from app.kinds.reentry import PRESETS, SPEC, run
-from app.kinds.reentry_params import ReentryParams as Params
+from app.kinds.reentry.params import ReentryParams as Params
 from app.params import deep_merge
 from tests.support import RecordingContext
 
@@ -140,7 +140,7 @@ def test_non_finite_numbers_become_null_not_zero():
     """The one NaN policy (json_float) in the reentry family's result blocks."""
     import numpy as np
 
-    from app.kinds.reentry_edge import final_block, objective_block, trajectory_block
+    from app.kinds.reentry.edge import final_block, objective_block, trajectory_block
     from solvers.models.reentry_state import Trajectory
 
     x = np.ones((6, 3))

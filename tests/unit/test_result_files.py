@@ -117,7 +117,8 @@ def test_the_oem_reads_back_with_the_library_and_starts_on_the_interceptors_orbi
     from oem import OrbitEphemerisMessage
 
     from app.kinds.intercept import to_problem
-    from app.results.oem import has_oem, inertial_states, to_oem
+    from app.kinds.intercept.oem import inertial_states, to_oem
+    from app.results.oem import has_oem
     from solvers.models.relative_motion import circular_state
 
     params, result = finite_intercept
@@ -167,7 +168,7 @@ def _read_oem(text: str, tmp_path):
 
 def test_the_midcourse_oem_reads_back_and_flies_the_front_points_corrections(tmp_path):
     from app.kinds.midcourse import to_problem
-    from app.results.midcourse_oem import default_point, midcourse_segments, midcourse_to_oem
+    from app.kinds.midcourse.oem import default_point, midcourse_segments, midcourse_to_oem
     from solvers.midcourse.trajectory import inertial_rotation
 
     _, params, outcome = solve_preset("upper-stage-table3")

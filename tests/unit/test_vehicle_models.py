@@ -9,7 +9,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from app.kinds.reentry_params import ReentryParams
+from app.kinds.reentry.params import ReentryParams
 from solvers import reentry as rs
 from solvers.common import Outcome
 from solvers.models import reentry_dynamics as dyn
@@ -138,7 +138,7 @@ def test_mars_entry_solves_and_its_repropagation_meets_the_terminal_conditions()
     import json
 
     from app.kinds.reentry import SPEC, run
-    from app.kinds.reentry_edge import to_problem
+    from app.kinds.reentry.edge import to_problem
     from tests.support import RecordingContext
     params = SPEC.params_model.model_validate(next(p for p in SPEC.presets
                                                    if p.name == "mars-msl-max-crossrange").params)
@@ -200,7 +200,7 @@ def test_malformed_aero_table_is_a_422(client, table, rule):
 
 
 def test_inline_vehicle_planet_and_atmosphere_reach_the_solver():
-    from app.kinds.reentry_edge import to_problem
+    from app.kinds.reentry.edge import to_problem
     params = ReentryParams.model_validate({
         "vehicle": {"preset": "shuttle", "heating": {"model": "sutton_graves", "nose_radius_m": 0.8}},
         "planet": {"preset": "earth", "sutton_graves_k": 1.8e-4},

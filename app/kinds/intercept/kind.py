@@ -1,10 +1,10 @@
 """The ``intercept`` kind: long-range interception of a satellite (paper 003).
 
-API edge of ``solvers.intercept``: the parameters (:mod:`app.kinds.intercept_params`),
+API edge of ``solvers.intercept``: the parameters (:mod:`app.kinds.intercept.params`),
 the ``long-range-intercept`` preset, and ``run``, which builds the solver problem
 (SI, radians), runs the requested methods and returns the result of
 ``shared/specs/api.md`` (``impulsive``, ``finite_thrust``, ``comparison``, ``notes``;
-blocks built in :mod:`app.kinds.intercept_results`).  Angles of the orbits are in the
+blocks built in :mod:`app.kinds.intercept.results`).  Angles of the orbits are in the
 Earth-centred inertial frame of the epoch t0 = 0; all times are seconds after t0.
 """
 from __future__ import annotations
@@ -12,9 +12,9 @@ from __future__ import annotations
 import math
 
 from app.kinds.base import JobContext, KindSpec, Preset, RunOutcome, outcome_from_status, warm_start_from_job
-from app.kinds.intercept_params import InterceptParams
-from app.kinds.intercept_result_model import InterceptResult
-from app.kinds.intercept_results import comparison, finite_result, impulsive_result, key_numbers
+from app.kinds.intercept.params import InterceptParams
+from app.kinds.intercept.result_model import InterceptResult
+from app.kinds.intercept.results import comparison, finite_result, impulsive_result, key_numbers
 
 PAPER_NOTE = (
     "Paper 003 reports 1501.73 m/s at t_man = 4328 s (fuel 199.99 kg, g0 = 9.8 m/s^2). With the "

@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 
 from app.kinds.base import json_float, json_value
-from app.kinds.intercept_params import InterceptParams
+from app.kinds.intercept.params import InterceptParams
 
 FRAME = ("Hill frame of the target: origin at the target, x radial (outward), y along-track, "
          "z orbit normal (angular momentum); velocities as seen in the rotating frame")

@@ -1,6 +1,6 @@
 """The ``midcourse`` kind: timing of midcourse corrections on a transfer orbit (paper 002).
 
-API edge of ``solvers.midcourse``: the parameters (:mod:`app.kinds.midcourse_params`),
+API edge of ``solvers.midcourse``: the parameters (:mod:`app.kinds.midcourse.params`),
 the ``upper-stage-two-corrections`` preset (paper 002's NSGA-II run) and
 ``upper-stage-table3`` (its Table 3 schedules evaluated directly), and
 ``run``, which builds the solver problem, runs it with the job's progress and
@@ -15,8 +15,8 @@ import math
 import time
 
 from app.kinds.base import JobContext, KindSpec, Preset, RunOutcome, json_float, outcome_from_status
-from app.kinds.midcourse_params import MidcourseParams
-from app.kinds.midcourse_result_model import MidcourseResult
+from app.kinds.midcourse.params import MidcourseParams
+from app.kinds.midcourse.result_model import MidcourseResult
 from solvers.midcourse import cases
 
 PAPER_NOTE = (

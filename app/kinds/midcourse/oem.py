@@ -36,8 +36,8 @@ def midcourse_segments(*, result: dict, params: dict, point: int,
                        trajectory: Literal["corrected", "nominal"] = "corrected"):
     """``(segments, comments)``: ``[(t_s, r_m (n, 3), v_mps (n, 3))]`` Earth-centred inertial, and the
     file's COMMENT lines."""
-    from app.kinds.midcourse import to_problem
-    from app.kinds.midcourse_params import MidcourseParams
+    from app.kinds.midcourse.kind import to_problem
+    from app.kinds.midcourse.params import MidcourseParams
     from solvers.midcourse.trajectory import inertial_rotation, transfer_trajectories
 
     p = MidcourseParams.model_validate(params)

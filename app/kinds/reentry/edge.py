@@ -13,8 +13,8 @@ import math
 import numpy as np
 
 from app.kinds.base import json_float
-from app.kinds.reentry_params import ReentryParams
-from app.kinds.vehicle_params import named_atmosphere
+from app.kinds.reentry.params import ReentryParams
+from app.kinds.reentry.vehicle import named_atmosphere
 from solvers.models.reentry_state import CONTROLS, STATE_INDEX, STATES, Trajectory
 
 MAX_DENSE_POINTS = 500   # points of the verification's dense trajectory kept in a result

@@ -10,9 +10,9 @@ import functools
 import math
 
 from app.kinds.base import JobContext, KindSpec, Preset, RunOutcome, outcome_from_status, warm_start_from_job
-from app.kinds.reentry_edge import guess_from_result, reentry_result, to_problem
-from app.kinds.reentry_params import BETTS_HEAT_LIMIT_W_M2, PAPER000_TERMINAL_ALTITUDE_M, ReentryParams
-from app.kinds.result_models import ReentryResult
+from app.kinds.reentry.edge import guess_from_result, reentry_result, to_problem
+from app.kinds.reentry.params import BETTS_HEAT_LIMIT_W_M2, PAPER000_TERMINAL_ALTITUDE_M, ReentryParams
+from app.kinds.reentry.result_model import ReentryResult
 from solvers.models import shuttle as sh
 
 _BETTS_NOTE = ("Betts shuttle (Practical Methods for Optimal Control, sec. 6.3): entry at 260000 ft, "

@@ -9,10 +9,11 @@ from __future__ import annotations
 
 from pydantic import Field
 
-from app.kinds.result_models import (
-    Num, ReentryResultFinalState, ReentryResultObjective, ReentryResultSolver, ReentryResultTrajectory,
-    ReentryResultVerification, ResultModel, Series, series,
+from app.kinds.reentry.result_model import (
+    ReentryResultFinalState, ReentryResultObjective, ReentryResultSolver, ReentryResultTrajectory,
+    ReentryResultVerification,
 )
+from app.kinds.result_models import Num, ResultModel, Series, series
 
 
 class RobustResultObjective(ReentryResultObjective):
