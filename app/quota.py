@@ -12,8 +12,9 @@ the parameters that drive its run time:
   (one J2 propagation per member and generation); evaluate: schedules x samples;
 * ``intercept``: scan and porkchop points / 100, plus 200 per finite-thrust
   mesh (1 + max_refinements), twice that with a free final time;
-* a kind that declares ``KindSpec.cost`` (``ocp``: intervals x (states + controls) x the
-  expressions' characters / 6000, twice for LGL, times the refinement rounds with ``accuracy``).
+* a kind that declares ``KindSpec.cost`` (``ocp``: intervals x steps per interval x (states +
+  controls) x the expressions' size, scaled so that the Betts shuttle written as an ocp costs what
+  the reentry kind's does; ``app.kinds.ocp.kind.cost``).
 
 A submission is refused with 429 (and ``Retry-After``) when its owner already
 has ``max_queued_per_owner`` queued jobs, ``max_active_per_owner`` queued plus

@@ -185,6 +185,11 @@ def test_presets_partial_overrides_and_study_paths_resolve(client):
     for point in points:
         resolved = resolve_params(SPEC, point.params, None)
         assert resolved["states"][1]["final"] in (4.0, 5.0)
+    # the Betts shuttle written as an ocp costs what the reentry kind's Betts preset costs
+    betts = quota.estimate_cost("ocp", resolve_params(SPEC, PRESETS["betts-shuttle-ocp"].params, None))
+    reentry = quota.estimate_cost("reentry", resolve_params(KINDS["reentry"], PRESETS["betts-max-crossrange"].params,
+                                                            None))
+    assert betts == pytest.approx(reentry, rel=0.25)
     r = client.post("/v1/studies", json={"kind": "ocp", "preset": "brachistochrone", "mode": "independent",
                                          "sweeps": [{"path": "states.1.final", "values": [4.0, 6.0]}]})
     assert r.status_code == 202, r.text
@@ -260,8 +265,8 @@ RESULT = {
 def test_key_numbers_plots_and_the_result_model_of_a_result():
     from app.results.plots import plots_for, render
 
-    assert key_numbers(RESULT) == {"objective": 1.8016, "sense": "minimize", "tf": 1.8016, "limits_held": True,
-                                   "iterations": 12}
+    assert key_numbers(RESULT) == {"objective": 1.8016, "sense": "minimize", "tf": 1.8016, "iterations": 12,
+                                   "limits_held": True}
     names = [p.name for p in plots_for("ocp", RESULT)]
     assert names == ["t-x", "t-y", "t-v", "t-theta", "t-speed", "x-y"]
     assert [p.name for p in plots(RESULT)] == names

@@ -60,9 +60,13 @@ def test_every_plot_renders_and_the_report_holds_them(solved, name):
         assert name == "shuttle-min-heat-load-terminal" and outcome.error["code"] == "infeasible"
         return
     names = [p.name for p in _check_all(kind, params, outcome.result)]
-    expected = {"reentry": {"altitude_speed", "ground_track", "controls", "heating"},
-                "midcourse": {"pareto_front", "correction_times"},
-                "intercept": {"delta_v_scan", "porkchop", "thrust_mass", "hill_trajectory"}}[kind]
+    if kind == "ocp":  # every state, control and expression against time, then the pairs asked for
+        quantities = [n for n in outcome.result["trajectory"] if n != "t"]
+        expected = {f"t-{n}" for n in quantities} | {f"{x}-{y}" for x, y in params["plots"]}
+    else:
+        expected = {"reentry": {"altitude_speed", "ground_track", "controls", "heating"},
+                    "midcourse": {"pareto_front", "correction_times"},
+                    "intercept": {"delta_v_scan", "porkchop", "thrust_mass", "hill_trajectory"}}[kind]
     assert set(names) == expected
     if kind == "reentry":  # the re-propagated trajectory is kept and drawn over the solution
         result = outcome.result
@@ -87,8 +91,12 @@ def test_csv_tables_round_trip_the_json_numbers(solved, name):
     assert tables
     for table, cols in tables.items():
         rows = list(csv.reader(io.StringIO(to_csv(cols))))
-        assert rows[0] == list(cols) and all(h.rsplit("_", 1)[-1] in (
-            "s", "m", "mps", "deg", "kg", "n", "m2", "pa", "factor") for h in rows[0]), rows[0]
+        assert rows[0] == list(cols)
+        if kind == "ocp":  # the problem's own names: t and what it declared (units its own, in result.units)
+            assert rows[0][0] == "t" and set(rows[0]) <= set(outcome.result["trajectory"]), rows[0]
+        else:
+            assert all(h.rsplit("_", 1)[-1] in (
+                "s", "m", "mps", "deg", "kg", "n", "m2", "pa", "factor") for h in rows[0]), rows[0]
         for i, row in enumerate(rows[1:]):
             for h, text in zip(rows[0], row):
                 want = cols[h][i]

@@ -77,40 +77,38 @@ def _limits_held(verification) -> bool | None:
 def key_numbers(result: dict) -> dict:
     """Objective (in the user's sense), final time, and whether every limit held on the dense re-flight."""
     out = {"objective": result["objective"]["value"], "sense": result["objective"]["sense"],
-           "tf": result["tf"]}
+           "tf": result["tf"], "iterations": (result.get("solver") or {}).get("iterations")}
     held = _limits_held(result.get("verification"))
     if held is not None:
         out["limits_held"] = held
-    solver = result.get("solver") or {}
-    out["iterations"] = solver.get("iterations")
     return out
 
 
-# One work unit is about one RK4 step of one reentry shooting interval (app.quota): six states and
-# ~1,000 characters of expressions.  The NLP's size grows with states x intervals, and each node's
-# cost with the expressions' size.
-UNIT_STATES_CHARS = 6 * 1000.0
+# One work unit is about one RK4 step of one reentry shooting interval (app.quota: the Betts reentry at 100
+# intervals x 2 substeps costs 200).  That problem written as an ocp (the betts-shuttle-ocp preset: 6 states,
+# 2 controls, ~400 characters of expressions) costs the same: the NLP grows with the integration steps and
+# the states and controls, each step's cost with the size of the expressions.
+REFERENCE_WIDTH = 8          # states + controls of the reference problem
+REFERENCE_CHARS = 400.0      # characters of its dynamics, expressions, path constraints and integrand
+MIN_CHARS = 100.0            # a tiny problem still costs its NLP's overhead
 
 
 def _text_size(params: dict) -> int:
-    size = 0
-    for group in ("expressions", "dynamics"):
-        size += sum(len(str(v)) for v in (params.get(group) or {}).values())
-    for group in ("path",):
-        size += sum(len(str(c.get("expr", ""))) for c in (params.get(group) or []) if isinstance(c, dict))
-    objective = params.get("objective") or {}
-    size += len(str(objective.get("integrand") or ""))
-    return size
+    size = sum(len(str(v)) for group in ("expressions", "dynamics") for v in (params.get(group) or {}).values())
+    size += sum(len(str(c.get("expr", ""))) for c in (params.get("path") or []) if isinstance(c, dict))
+    return size + len(str((params.get("objective") or {}).get("integrand") or ""))
 
 
 def cost(params: dict) -> float:
-    """Work units: intervals x (states + controls) x expression characters, scaled (see above)."""
+    """Work units: intervals x steps per interval x (states + controls) x expression size, scaled to the
+    reference above; times the refinement rounds when ``accuracy`` asks for mesh refinement."""
     tr = params.get("transcription") or {}
-    intervals = float(tr.get("intervals", 50))
-    width = float(len(params.get("states") or []) + len(params.get("controls") or []))
-    lgl = 2.0 if tr.get("method") == "lgl" else 1.0   # a collocation interval carries more nodes
+    steps = float(tr.get("substeps", 2)) if tr.get("method", "multiple_shooting") == "multiple_shooting" \
+        else float(tr.get("nodes", 4)) - 1.0
+    width = float(len(params.get("states") or []) + len(params.get("controls") or [])) / REFERENCE_WIDTH
+    size = max(MIN_CHARS, float(_text_size(params))) / REFERENCE_CHARS
     refine = 1.0 + (float(tr.get("max_refinements", 8)) if params.get("accuracy") else 0.0)
-    return intervals * width * max(100, _text_size(params)) * lgl * refine / UNIT_STATES_CHARS
+    return float(tr.get("intervals", 50)) * steps * width * size * refine
 
 
 SPEC = KindSpec(
