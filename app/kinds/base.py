@@ -141,8 +141,7 @@ class KindSpec:
     result_model: type[BaseModel] | None = None
     # Estimated cost in app.quota's work units from the resolved params; None: app.quota's own table.
     cost: Callable[[dict], float] | None = None
-    # The plots of one result (app.results.plots.PlotDef list) when they depend on the result;
-    # None: the static list in app.results.plots.PLOTS.
+    # The plots of one result (app.results.plots.PlotDef list; app/kinds/<kind>/plots.py); None: no plots.
     plots: Callable[[dict], list] | None = None
 
 

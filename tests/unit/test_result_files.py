@@ -38,7 +38,7 @@ def _check_all(kind: str, params: dict, result: dict) -> list:
     svgs = []
     for p in plots:
         png = plot_defs.render(p, result=result, params=params, title="test", fmt="png")
-        _check_png(png, plot_defs.SIZES.get(p.name, (8, 5)))
+        _check_png(png, p.size)
         svg = plot_defs.render(p, result=result, params=params, title="test", fmt="svg").decode()
         assert "<svg" in svg and "</svg>" in svg
         svgs.append((p.title, svg))

@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 
 from app.kinds.base import JobContext, KindSpec, Preset, RunOutcome, outcome_from_status, warm_start_from_job
+from app.kinds.intercept.plots import plots
 from app.kinds.intercept.params import InterceptParams
 from app.kinds.intercept.result_model import InterceptResult
 from app.kinds.intercept.results import comparison, finite_result, impulsive_result, key_numbers
@@ -149,6 +150,7 @@ SPEC = KindSpec(
     params_model=InterceptParams,
     run=run,
     presets=PRESETS,
+    plots=plots,
     summary="Long-range interception: single-impulse Lambert scan (and porkchop) and finite-thrust fuel-optimal",
     key_numbers=key_numbers,
     result_model=InterceptResult,

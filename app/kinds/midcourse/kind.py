@@ -15,6 +15,7 @@ import math
 import time
 
 from app.kinds.base import JobContext, KindSpec, Preset, RunOutcome, json_float, outcome_from_status
+from app.kinds.midcourse.plots import plots
 from app.kinds.midcourse.params import MidcourseParams
 from app.kinds.midcourse.result_model import MidcourseResult
 from solvers.midcourse import cases
@@ -209,6 +210,7 @@ SPEC = KindSpec(
     params_model=MidcourseParams,
     run=run,
     presets=PRESETS,
+    plots=plots,
     time_limit_s=900.0,
     summary="Midcourse-correction timing on a transfer orbit: J2 coasts, Lambert re-targeting, NSGA-II front",
     key_numbers=key_numbers,
