@@ -41,31 +41,29 @@ def _num(description: str, example: Any = None):
     return Field(None, description=description, examples=[example])
 
 
-class OcpState(StrictModel):
-    """A state: its boundary values (a number fixes it, null leaves it free), bounds over the whole
-    trajectory, and a typical magnitude for scaling."""
+class OcpVariable(StrictModel):
+    """What a state and a control declare alike: a name, bounds over the whole trajectory, a typical
+    magnitude for scaling and a unit."""
 
     name: str = _name("x")
-    initial: float | None = _num("Value at t0; null: free", 0.0)
-    final: float | None = _num("Value at tf; null: free", 10.0)
     lower: float | None = _num("Lower bound over the whole trajectory; null: none", None)
     upper: float | None = _num("Upper bound over the whole trajectory; null: none", None)
-    scale: float | None = Field(None, gt=0, description="Typical magnitude (the NLP works in state/scale); "
-                                "null: from the bounds and boundary values", examples=[10.0])
+    scale: float | None = Field(None, gt=0, description="Typical magnitude (the NLP works in value/scale); "
+                                "null: from the bounds (and a state's boundary values)", examples=[10.0])
     unit: str | None = Field(None, max_length=32, description="Unit shown on plots and tables (free text)",
                              examples=["m"])
 
 
-class OcpControl(StrictModel):
-    """A control: bounds and a typical magnitude."""
+class OcpState(OcpVariable):
+    """A state: its boundary values (a number fixes it, null leaves it free), bounds over the whole
+    trajectory, and a typical magnitude for scaling."""
 
-    name: str = _name("theta")
-    lower: float | None = _num("Lower bound; null: none", 0.0)
-    upper: float | None = _num("Upper bound; null: none", 3.14159)
-    scale: float | None = Field(None, gt=0, description="Typical magnitude; null: from the bounds",
-                                examples=[1.0])
-    unit: str | None = Field(None, max_length=32, description="Unit shown on plots and tables (free text)",
-                             examples=["rad"])
+    initial: float | None = _num("Value at t0; null: free", 0.0)
+    final: float | None = _num("Value at tf; null: free", 10.0)
+
+
+class OcpControl(OcpVariable):
+    """A control: bounds over the whole trajectory and a typical magnitude."""
 
 
 class OcpParameter(StrictModel):
