@@ -15,7 +15,7 @@ from solvers.ocp.cases import PRESETS
 from solvers.ocp.expressions import OcpInputError
 from solvers.ocp.spec import OcpLimits, OcpProblem, parse_problem
 
-__all__ = ["parse_problem", "OcpProblem", "OcpInputError", "OcpLimits", "PRESETS", "solve", "OcpSolution"]
+__all__ = ["PRESETS", "OcpInputError", "OcpLimits", "OcpProblem", "OcpSolution", "parse_problem", "solve"]
 
 _LAZY = {"solve": "solvers.ocp.solver", "OcpSolution": "solvers.ocp.solver"}
 

@@ -21,8 +21,9 @@ from __future__ import annotations
 import ast
 import difflib
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping, Union
+from typing import Union
 
 # name -> (smallest, largest) number of arguments; None: no upper bound.
 FUNCTIONS: dict[str, tuple[int, int | None]] = {
@@ -60,14 +61,14 @@ class Name:
 
 @dataclass(frozen=True, slots=True)
 class Neg:
-    operand: "Expr"
+    operand: Expr
 
 
 @dataclass(frozen=True, slots=True)
 class BinOp:
     op: str             # one of + - * / **
-    left: "Expr"
-    right: "Expr"
+    left: Expr
+    right: Expr
 
 
 @dataclass(frozen=True, slots=True)
@@ -88,7 +89,7 @@ class Boundary:
     kind: str           # "state" | "control"
 
 
-Expr = Union[Num, Name, Neg, BinOp, Call, Boundary]
+Expr = Union[Num, Name, Neg, BinOp, Call, Boundary]  # noqa: UP007 (a runtime alias)
 
 
 def walk(node: Expr):
@@ -146,7 +147,7 @@ def closest(name: str, candidates) -> str | None:
 def parse_expression(text, *, path: str, scope: Scope, max_chars: int = 2000,
                      max_nodes: int = 400) -> Expr:
     """Parse and validate one expression; raises :class:`OcpInputError` for anything outside the language."""
-    if isinstance(text, bool) or isinstance(text, (int, float)):
+    if isinstance(text, (bool, int, float)):
         text = repr(float(text))      # a bare JSON number is an expression too
     if not isinstance(text, str):
         raise OcpInputError(path, f"an expression must be a string, not {type(text).__name__}")
@@ -164,9 +165,7 @@ def parse_expression(text, *, path: str, scope: Scope, max_chars: int = 2000,
         raise OcpInputError(path, "expression nested too deeply") from None
     except ValueError as e:             # e.g. a NUL character in the text
         raise OcpInputError(path, f"cannot parse: {e}") from None
-    count = 0
-    for _ in ast.walk(tree):            # iterative: safe on any tree the parser produced
-        count += 1
+    for count, _ in enumerate(ast.walk(tree), 1):   # iterative: safe on any tree the parser produced
         if count > max_nodes:
             raise OcpInputError(path, f"expression has more than {max_nodes} nodes "
                                       f"(limit max_expression_nodes={max_nodes})")

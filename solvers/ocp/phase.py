@@ -31,8 +31,10 @@ from solvers.ocp.symbolic import PhaseFunctions
 from solvers.transcription.lgl import lgl_integration_matrix, lgl_nodes, lgl_weights
 from solvers.transcription.nlp import NLPSolver, cached_solver
 
-EXPAND = False   # True: IPOPT evaluates one SX graph (as Opti with expand=True); measured slower to build
-                 # (Betts shuttle 9.5 s build + 0.7 s solve) than the mapped SX blocks in MX (0.2 + 1.1 s)
+# IPOPT's Jacobian and Hessian from the elements' SX blocks (block_derivatives) instead of CasADi's
+# AD of the MX graph.  Expanding the whole NLP to SX (as Opti with expand=True) was measured
+# slower to build: Betts shuttle 9.5 s build + 0.7 s IPOPT against 0.2 s + 1.1 s for the MX graph.
+BLOCKS = True
 
 
 @dataclass(frozen=True)
@@ -136,8 +138,37 @@ def _lgl_segment(fns: PhaseFunctions, grid: Grid) -> ca.Function:
     return ca.Function("ocp_segment", [X, U, ta, h, theta, c, t0, tf], [defects, quad])
 
 
+@dataclass(frozen=True)
+class Element:
+    """One kind of term of the NLP, repeated ``count`` times: ``fn(w, p, k) -> (y, f)`` with ``w``
+    the instance's decision variables (the columns ``cols[k]`` of ``z``), ``k`` a number per
+    instance (interval index or node position), ``y`` its constraint values (the rows
+    ``offset + len(y) k ...`` of ``g``) and ``f`` its share of the objective."""
+
+    name: str
+    fn: ca.Function
+    cols: np.ndarray          # (count, nw) global columns of each instance's w
+    kvals: np.ndarray         # (count,)
+    has_f: bool = True        # False: its objective share is zero (no Lagrange term)
+
+    @property
+    def count(self) -> int:
+        return self.cols.shape[0]
+
+    @property
+    def ny(self) -> int:
+        return int(self.fn.size1_out(0))
+
+
 class PhaseNLP:
-    """A built (or cached) NLP for one phase structure, with the layout to pack and unpack it."""
+    """A built (or cached) NLP for one phase structure, with the layout to pack and unpack it.
+
+    The NLP is a sum of elements (:class:`Element`: intervals or segments, path nodes, the
+    events), each an SX function of its own few variables ``map``-ped over its instances; IPOPT's
+    Jacobian and Hessian of the Lagrangian are assembled from the elements' SX Jacobians and
+    Hessians (the idea of :mod:`solvers.transcription.blocks`, for any element layout), which is
+    2-3x cheaper per iteration than CasADi's forward-over-reverse sweeps through the MX graph.
+    """
 
     def __init__(self, problem: OcpProblem, fns: PhaseFunctions, *, ipopt: dict | None = None):
         self.fns, self.grid = fns, grid_of(problem)
@@ -145,7 +176,7 @@ class PhaseNLP:
         g = self.grid
         self.nz = 1 + fns.ntheta + fns.nx * g.n_nodes + fns.nu * g.n_controls
         self.np_ = fns.nc + 1 + fns.nx + fns.nu + 1 + fns.ntheta + fns.npath + fns.nboundary + 1
-        key = ("ocp", problem.structure(), EXPAND, tuple(sorted((ipopt or {}).items())))
+        key = ("ocp", problem.structure(), BLOCKS, tuple(sorted((ipopt or {}).items())))
         self.solver, self.was_cached = cached_solver(key, lambda: self._build(ipopt or {}))
         self.layout = self.solver.ocp_layout
 
@@ -159,63 +190,176 @@ class PhaseNLP:
             i += n
         return out
 
-    def split_z(self, z):
-        fns, g = self.fns, self.grid
-        i = 1 + fns.ntheta
-        j = i + fns.nx * g.n_nodes
-        return (z[0], z[1:i], ca.reshape(z[i:j], fns.nx, g.n_nodes),
-                ca.reshape(z[j:], fns.nu, g.n_controls))
-
     def node_controls(self, U):
         """Controls at the nodes: a constant control's last node repeats the last interval's."""
         if self.grid.n_controls == self.grid.n_nodes:
             return U
         return ca.horzcat(U, U[:, -1]) if not isinstance(U, np.ndarray) else np.hstack([U, U[:, -1:]])
 
-    def _build(self, ipopt: dict) -> NLPSolver:
+    # -- columns of z -----------------------------------------------------------------------------
+    def _x_cols(self, j: int) -> np.ndarray:
+        return 1 + self.fns.ntheta + self.fns.nx * j + np.arange(self.fns.nx)
+
+    def _u_cols(self, j: int) -> np.ndarray:
+        g = self.grid
+        j = min(j, g.n_controls - 1)
+        return 1 + self.fns.ntheta + self.fns.nx * g.n_nodes + self.fns.nu * j + np.arange(self.fns.nu)
+
+    def _common_cols(self) -> np.ndarray:
+        return np.arange(1 + self.fns.ntheta)
+
+    # -- the elements -----------------------------------------------------------------------------
+    def _elements(self) -> list[Element]:
         fns, g = self.fns, self.grid
-        m, N = g.intervals, g.n_nodes
-        z, p = ca.MX.sym("z", self.nz), ca.MX.sym("p", self.np_)
+        nx, nu, nth, m = fns.nx, fns.nu, fns.ntheta, g.intervals
+        p = ca.SX.sym("p", self.np_)
         P = self.split_p(p)
-        tfz, thz, Xz, Uz = self.split_z(z)
         c, t0 = P["c"], P["t0"]
-        tf = tfz * P["ts"]
-        theta = thz * P["thetas"]
-        X = Xz * ca.repmat(P["xs"], 1, N)
-        U = Uz * ca.repmat(P["us"], 1, g.n_controls)
+        k = ca.SX.sym("k")
+        tfz, thz = ca.SX.sym("tfz"), ca.SX.sym("thz", nth)
+        tf, theta = tfz * P["ts"], thz * P["thetas"]
         h = (tf - t0) / m
-        ta = t0 + h * ca.DM(np.arange(m)).T
-        parts, layout = [], []
-
-        def add(name, expr):
-            parts.append(ca.vec(expr))
-            layout.append((name, int(expr.numel())))
-
+        objective = self.sign / P["objs"]
+        out = []
         if g.method == "multiple_shooting":
-            fmap = _ms_interval(fns, g).map(m, "serial")
-            ub = U[:, 1:] if g.control == "linear" else U
-            xe, q = fmap(X[:, :m], U[:, :m], ub, ta, h, theta, c, t0, tf)
-            add("defects", (xe - X[:, 1:]) / ca.repmat(P["xs"], 1, m))
+            linear = g.control == "linear"
+            xa, xb = ca.SX.sym("xa", nx), ca.SX.sym("xb", nx)
+            ua, ub = ca.SX.sym("ua", nu), ca.SX.sym("ub", nu)
+            xe, q = _ms_interval(fns, g)(xa * P["xs"], ua * P["us"], (ub if linear else ua) * P["us"],
+                                         t0 + k * h, h, theta, c, t0, tf)
+            w = ca.vertcat(tfz, thz, xa, ua, *([ub] if linear else []), xb)
+            f = objective * q if fns.nq else ca.SX(0)
+            fn = ca.Function("ocp_interval_el", [w, p, k], [(xe - xb * P["xs"]) / P["xs"], f])
+            cols = [np.concatenate([self._common_cols(), self._x_cols(i), self._u_cols(i),
+                                    *([self._u_cols(i + 1)] if linear else []), self._x_cols(i + 1)])
+                    for i in range(m)]
+            out.append(Element("defects", fn, np.array(cols), np.arange(m, dtype=float), bool(fns.nq)))
         else:
             n = g.nodes
-            idx = [k * (n - 1) + j for k in range(m) for j in range(n)]
-            fmap = _lgl_segment(fns, g).map(m, "serial")
-            d, q = fmap(X[:, idx], U[:, idx], ta, h, theta, c, t0, tf)
-            add("defects", d / ca.repmat(P["xs"], 1, m * (n - 1)))
+            Xs, Us = ca.SX.sym("X", nx, n), ca.SX.sym("U", nu, n)
+            d, q = _lgl_segment(fns, g)(Xs * ca.repmat(P["xs"], 1, n), Us * ca.repmat(P["us"], 1, n),
+                                        t0 + k * h, h, theta, c, t0, tf)
+            w = ca.vertcat(tfz, thz, ca.vec(Xs), ca.vec(Us))
+            f = objective * q if fns.nq else ca.SX(0)
+            fn = ca.Function("ocp_segment_el", [w, p, k], [ca.vec(d / ca.repmat(P["xs"], 1, n - 1)), f])
+            cols = []
+            for i in range(m):
+                nodes = range(i * (n - 1), i * (n - 1) + n)
+                cols.append(np.concatenate([self._common_cols(), *[self._x_cols(j) for j in nodes],
+                                            *[self._u_cols(j) for j in nodes]]))
+            out.append(Element("defects", fn, np.array(cols), np.arange(m, dtype=float), bool(fns.nq)))
+        xs_, us_ = ca.SX.sym("x", nx), ca.SX.sym("u", nu)
         if fns.npath:
-            t_nodes = t0 + (tf - t0) * ca.DM(g.tau()).T
-            vals = fns.path.map(N, "serial")(t_nodes, X, self.node_controls(U), theta, c, t0, tf)
-            add("path", vals / ca.repmat(P["paths"], 1, N))
-        Un = self.node_controls(U)
-        b, mayer = fns.events(t0, tf, X[:, 0], X[:, N - 1], Un[:, 0], Un[:, N - 1], theta, c)
-        if fns.nboundary:
-            add("boundary", b / P["bnds"])
-        J = mayer + (ca.sum2(q) if fns.nq else 0)
-        nlp = {"x": z, "p": p, "f": self.sign * J / P["objs"], "g": ca.vertcat(*parts)}
-        solver = NLPSolver(nlp, name=f"ocp_{g.method}", ipopt=ipopt,
-                           casadi_options={"expand": True} if EXPAND else None)
+            t = t0 + (tf - t0) * k
+            y = fns.path(t, xs_ * P["xs"], us_ * P["us"], theta, c, t0, tf) / P["paths"]
+            fn = ca.Function("ocp_path_el", [ca.vertcat(tfz, thz, xs_, us_), p, k], [y, ca.SX(0)])
+            cols = [np.concatenate([self._common_cols(), self._x_cols(j), self._u_cols(j)])
+                    for j in range(g.n_nodes)]
+            out.append(Element("path", fn, np.array(cols), g.tau(), False))
+        x0, xN, u0, uN = ca.SX.sym("x0", nx), ca.SX.sym("xN", nx), ca.SX.sym("u0", nu), ca.SX.sym("uN", nu)
+        b, mayer = fns.events(t0, tf, x0 * P["xs"], xN * P["xs"], u0 * P["us"], uN * P["us"], theta, c)
+        fn = ca.Function("ocp_events_el", [ca.vertcat(tfz, thz, x0, xN, u0, uN), p, k],
+                         [b / P["bnds"] if fns.nboundary else ca.SX.zeros(0), objective * mayer])
+        cols = np.concatenate([self._common_cols(), self._x_cols(0), self._x_cols(g.n_nodes - 1),
+                               self._u_cols(0), self._u_cols(g.n_nodes - 1)])
+        out.append(Element("boundary", fn, cols[None, :], np.zeros(1)))
+        return out
+
+    def _build(self, ipopt: dict) -> NLPSolver:
+        z, p = ca.MX.sym("z", self.nz), ca.MX.sym("p", self.np_)
+        elements = self._elements()
+        parts, layout, f = [], [], 0
+        for el in elements:
+            W = ca.reshape(z[el.cols.ravel().tolist()], el.cols.shape[1], el.count)
+            Y, F = el.fn.map(el.count, "serial")(W, p, ca.DM(el.kvals).T)
+            if el.has_f:      # else the gradient of f would sweep back through every interval
+                f = f + ca.sum2(F)
+            if el.ny:
+                parts.append(ca.vec(Y))
+                layout.append((el.name, el.ny * el.count))
+        nlp = {"x": z, "p": p, "f": f, "g": ca.vertcat(*parts)}
+        blocks = ElementBlocks(nlp, elements) if BLOCKS else None
+        solver = NLPSolver(nlp, name=f"ocp_{self.grid.method}", ipopt=ipopt, blocks=blocks)
         solver.ocp_layout = layout
         return solver
+
+
+def _nz(expr: ca.SX) -> ca.SX:
+    return ca.sparsity_cast(expr, ca.Sparsity.dense(expr.nnz(), 1))
+
+
+def _scatter(values: list, rows: list, cols: list, *, shape: tuple[int, int], upper: bool) -> ca.MX:
+    """The sparse matrix whose entry (r, c) sums every value mapped there (only r <= c when ``upper``)."""
+    rows, cols = np.concatenate(rows), np.concatenate(cols)
+    keep = rows <= cols if upper else np.ones(rows.size, bool)
+    nrow = shape[0]
+    key = cols.astype(np.int64) * nrow + rows
+    uniq, inv = np.unique(key[keep], return_inverse=True)
+    sp = ca.Sparsity.triplet(nrow, shape[1], (uniq % nrow).tolist(), (uniq // nrow).tolist())
+    A = ca.DM(ca.Sparsity.triplet(uniq.size, rows.size, inv.tolist(), np.flatnonzero(keep).tolist()), 1.0)
+    return ca.sparsity_cast(ca.mtimes(A, ca.vertcat(*values)), sp)
+
+
+class ElementBlocks:
+    """IPOPT's Jacobian and Hessian of the Lagrangian assembled from the elements' SX derivatives.
+
+    The interface :class:`solvers.transcription.nlp.NLPSolver` expects of its ``blocks``
+    (as :class:`solvers.transcription.blocks.BlockDerivatives` offers for the reentry layout):
+    ``functions`` (name -> SX Function, what :mod:`solvers.transcription.jit` compiles when
+    enabled) and ``nlpsol_options(nlp, impl)``.
+    """
+
+    def __init__(self, nlp: dict, elements: list[Element]):
+        self.elements = elements
+        self.functions: dict[str, ca.Function] = {}
+        self._sparsity: dict[str, ca.Sparsity] = {}
+        np_ = int(nlp["p"].numel())
+        for el in elements:
+            nw = el.cols.shape[1]
+            w, ps, k = ca.SX.sym("w", nw), ca.SX.sym("p", np_), ca.SX.sym("k")
+            y, f = el.fn(w, ps, k)
+            mu, lf = ca.SX.sym("mu", el.ny), ca.SX.sym("lf")
+            if el.ny:
+                jac = ca.jacobian(y, w)
+                name = f"{el.fn.name()}_jac"
+                self.functions[name] = ca.Function(name, [w, ps, k], [_nz(jac)])
+                self._sparsity[name] = jac.sparsity()
+            hess = ca.hessian(ca.dot(mu, y) + (lf * f if el.has_f else 0), w)[0]
+            if hess.nnz():
+                name = f"{el.fn.name()}_hess"
+                self.functions[name] = ca.Function(name, [w, ps, k, mu, lf], [_nz(hess)])
+                self._sparsity[name] = hess.sparsity()
+
+    def nlpsol_options(self, nlp: dict, impl: dict | None = None) -> dict:
+        fns = {**self.functions, **(impl or {})}
+        z, p = nlp["x"], nlp["p"]
+        nz, ng = int(z.numel()), int(nlp["g"].numel())
+        lam_f, lam_g = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", ng)
+        jv, jr, jc, hv, hr, hc = [], [], [], [], [], []
+        offset = 0
+        for el in self.elements:
+            W = ca.reshape(z[el.cols.ravel().tolist()], el.cols.shape[1], el.count)
+            K = ca.DM(el.kvals).T
+            name = f"{el.fn.name()}_jac"
+            if name in fns:
+                r, c = self._sparsity[name].get_triplet()
+                jv.append(ca.vec(fns[name].map(el.count, "serial")(W, p, K)))
+                jr.append((offset + el.ny * np.arange(el.count)[:, None] + np.asarray(r, int)[None, :]).ravel())
+                jc.append(el.cols[:, np.asarray(c, int)].ravel())
+            name = f"{el.fn.name()}_hess"
+            if name in fns:
+                r, c = self._sparsity[name].get_triplet()
+                Mu = ca.reshape(lam_g[offset:offset + el.ny * el.count], el.ny, el.count)
+                hv.append(ca.vec(fns[name].map(el.count, "serial")(W, p, K, Mu, lam_f)))
+                hr.append(el.cols[:, np.asarray(r, int)].ravel())
+                hc.append(el.cols[:, np.asarray(c, int)].ravel())
+            offset += el.ny * el.count
+        J = _scatter(jv, jr, jc, shape=(ng, nz), upper=False)
+        H = _scatter(hv, hr, hc, shape=(nz, nz), upper=True) if hv else ca.MX(nz, nz)
+        jac_g = ca.Function("nlp_jac_g", [z, p], [nlp["g"], J], ["x", "p"], ["g", "jac_g_x"])
+        hess = ca.Function("nlp_hess_l", [z, p, lam_f, lam_g], [H], ["x", "p", "lam_f", "lam_g"],
+                           ["triu_hess_gamma_x_x"])
+        return {"hess_lag": hess, "jac_g": jac_g}
 
 
 def positive_scale(*values, default: float = 1.0) -> float:

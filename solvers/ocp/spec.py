@@ -16,12 +16,34 @@ import math
 import re
 from dataclasses import dataclass, field
 
-from solvers.ocp.expressions import (FUNCTIONS, RESERVED, Expr, OcpInputError, Scope, closest,
-                                     names_used, parse_expression, to_text)
+from solvers.ocp.expressions import (
+    FUNCTIONS,
+    RESERVED,
+    Expr,
+    OcpInputError,
+    Scope,
+    closest,
+    names_used,
+    parse_expression,
+    to_text,
+)
 
-__all__ = ["OcpLimits", "OcpInputError", "parse_problem", "OcpProblem", "Phase", "StateDecl",
-           "ControlDecl", "ParameterDecl", "TableDecl", "Constraint", "Objective", "TimeSpec",
-           "Transcription", "Guess"]
+__all__ = [
+    "Constraint",
+    "ControlDecl",
+    "Guess",
+    "Objective",
+    "OcpInputError",
+    "OcpLimits",
+    "OcpProblem",
+    "ParameterDecl",
+    "Phase",
+    "StateDecl",
+    "TableDecl",
+    "TimeSpec",
+    "Transcription",
+    "parse_problem",
+]
 
 _IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 TOP_FIELDS = ("title", "constants", "tables", "states", "controls", "parameters", "time",

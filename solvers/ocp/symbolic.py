@@ -22,7 +22,7 @@ import casadi as ca
 import numpy as np
 
 from solvers.models.tables import clamp
-from solvers.ocp.expressions import BinOp, Boundary, Call, Expr, Name, Neg, Num
+from solvers.ocp.expressions import BinOp, Boundary, Expr, Name, Neg, Num
 from solvers.ocp.spec import OcpProblem, TableDecl
 
 _UNARY = {

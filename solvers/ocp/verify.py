@@ -103,7 +103,6 @@ def verify(*, fns, grid, t_nodes, X, U, theta, c, t0, tf, state_names, x_scale,
            path_bounds, path_names, path_scale) -> Verification:
     """Re-fly ``U`` from ``X[:, 0]`` (module docstring).  ``path_bounds``: (lower, upper) per path
     constraint (None for a side without a bound)."""
-    nx = fns.nx
     uf = control_function(grid, t_nodes, np.asarray(U, float))
     ends = interval_bounds(grid, t_nodes)
     m = grid.intervals
@@ -132,7 +131,7 @@ def verify(*, fns, grid, t_nodes, X, U, theta, c, t0, tf, state_names, x_scale,
                 return rhs(t, x, uf(t, k)[:, 0])
         try:
             sol = solve_ivp(f, (ta, tb), y, method="DOP853", rtol=1e-10, atol=atol, t_eval=t_eval)
-        except Exception as e:            # a NaN or an overflow in the user's dynamics
+        except (ValueError, ArithmeticError, RuntimeError) as e:   # NaN/overflow in the user's dynamics
             fail = f"re-propagation failed on interval {k}: {e}"
             break
         if not sol.success or sol.y.shape[1] != t_eval.size or not np.all(np.isfinite(sol.y)):

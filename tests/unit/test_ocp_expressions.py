@@ -58,7 +58,7 @@ def test_base_problem_and_every_preset_parse():
     p = parse_problem(BASE)
     assert [s.name for s in p.states] == ["x", "y", "v"]
     assert p.phase.transcription.method == "multiple_shooting"
-    for name, preset in PRESETS.items():
+    for preset in PRESETS.values():
         parse_problem(preset["params"])
 
 

@@ -1,0 +1,170 @@
+"""The ocp kind's numerics: every preset's published optimum at its stated tolerance, with the
+solver's status asserted and the DOP853 re-flight agreeing to the method's accuracy; both
+transcriptions; an infeasible problem; warm starts; limits held between the nodes; tables."""
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+
+from solvers.common import Outcome
+from solvers.ocp import PRESETS, OcpSolution, parse_problem, solve
+
+# The re-flight's largest state difference (scaled) that each preset's grid and method allow:
+# RK4 with 2 steps per interval is accurate to about h^4 on smooth problems; the hang glider's
+# lift history turns sharply near the thermal, the Goddard thrust switches, the shuttle is long.
+REFLIGHT = {"brachistochrone": 1e-6, "bryson-denham": 1e-6, "goddard-rocket": 1e-5,
+            "hang-glider": 5e-3, "betts-shuttle-ocp": 1e-4}
+
+
+def run(params, **kw) -> OcpSolution:
+    return solve(parse_problem(params), **kw)
+
+
+def check_preset(name: str) -> OcpSolution:
+    preset = PRESETS[name]
+    sol = run(preset["params"])
+    assert sol.status.outcome is Outcome.OPTIMAL, sol.status.message
+    assert sol.status.solver_status == "Solve_Succeeded"
+    assert abs(sol.objective - preset["optimum"]) <= preset["tolerance"], (sol.objective, preset["optimum"])
+    ver = sol.verification
+    assert ver["ok"] and ver["limits_held"] and ver["agrees"]
+    assert ver["max_state_difference_scaled_overall"] <= REFLIGHT[name], ver["max_state_difference_scaled"]
+    assert set(sol.trajectory) >= {"t", *sol.initial, *(c["name"] for c in preset["params"]["controls"])}
+    return sol
+
+
+@pytest.mark.parametrize("name", ["brachistochrone", "bryson-denham", "goddard-rocket", "hang-glider"])
+def test_preset_reproduces_published_optimum(name):
+    check_preset(name)
+
+
+@pytest.mark.slow
+def test_betts_shuttle_ocp_equals_reentry_kind():
+    sol = check_preset("betts-shuttle-ocp")
+    assert abs(sol.objective - 34.1412) <= 0.01
+    assert abs(sol.tf - 2008.59) <= 0.1
+    assert sol.sense == "maximize" and sol.objective > 0
+    assert "heat_rate" in sol.trajectory and np.all(np.isfinite(sol.trajectory["heat_rate"]))
+    assert sol.final["h"] == pytest.approx(80000.0) and sol.final["v"] == pytest.approx(2500.0)
+
+
+def test_presets_are_complete_bodies():
+    for preset in PRESETS.values():
+        assert set(preset) == {"description", "optimum", "tolerance", "params"}
+        assert str(preset["optimum"]) in preset["description"] or f"{preset['optimum']:g}" in preset["description"]
+        parse_problem(preset["params"])
+
+
+@pytest.mark.parametrize("method,intervals,nodes", [("multiple_shooting", 50, None), ("lgl", 20, 4)])
+def test_brachistochrone_both_transcriptions(method, intervals, nodes):
+    params = copy.deepcopy(PRESETS["brachistochrone"]["params"])
+    params["transcription"] = {"method": method, "intervals": intervals, **({"nodes": nodes} if nodes else {})}
+    sol = run(params)
+    assert sol.status.outcome is Outcome.OPTIMAL
+    assert sol.objective == pytest.approx(1.8016, abs=1e-4)
+    assert sol.tf == pytest.approx(sol.objective)
+    assert sol.verification["max_state_difference_scaled_overall"] < 1e-5
+    assert sol.solver["method"] == method and sol.solver["intervals"] == intervals
+    assert len(sol.trajectory["t"]) == (intervals + 1 if method == "multiple_shooting" else intervals * 3 + 1)
+
+
+def test_constant_controls():
+    params = copy.deepcopy(PRESETS["brachistochrone"]["params"])
+    params["transcription"] = {"intervals": 40, "control": "constant"}
+    sol = run(params)
+    assert sol.status.outcome is Outcome.OPTIMAL
+    assert sol.objective == pytest.approx(1.8016, abs=2e-3)
+
+
+def test_infeasible_problem_fails_as_infeasible():
+    params = copy.deepcopy(PRESETS["brachistochrone"]["params"])
+    params["states"][1]["final"] = 15.0          # above the start: no energy to climb there
+    sol = run(params)
+    assert sol.status.outcome is Outcome.INFEASIBLE
+    assert sol.status.solver_status == "Infeasible_Problem_Detected"
+    assert sol.status.max_constraint_violation > 1e-3
+
+
+def test_warm_start_reduces_iterations():
+    params = copy.deepcopy(PRESETS["brachistochrone"]["params"])
+    first = run(params)
+    stored = {"trajectory": {k: v.tolist() for k, v in first.trajectory.items()}, "tf": first.tf,
+              "parameters": first.parameters}
+    params["transcription"]["intervals"] = 80
+    cold = run(params)
+    warm = run(params, initial_guess=stored)
+    assert cold.status.ok and warm.status.ok
+    assert warm.objective == pytest.approx(cold.objective, abs=1e-7)
+    assert warm.solver["iterations"] < cold.solver["iterations"]
+
+
+def test_path_limit_held_between_nodes():
+    params = copy.deepcopy(PRESETS["bryson-denham"]["params"])
+    params["transcription"]["intervals"] = 10
+    sol = run(params)
+    assert sol.status.outcome is Outcome.OPTIMAL
+    ver = sol.verification
+    assert ver["limits_held"] and ver["path"]["x_limit"]["held"]
+    assert ver["path"]["x_limit"]["max"] <= 1 / 9 * (1 + 1e-3)
+    assert sol.objective >= 4.0 - 1e-6                    # a limit that holds costs, never gains
+
+
+def test_cancel_is_a_value():
+    sol = run(PRESETS["brachistochrone"]["params"], should_stop=lambda: True)
+    assert sol.status.outcome is Outcome.CANCELLED
+
+
+def test_progress_is_reported():
+    seen = []
+    run(PRESETS["brachistochrone"]["params"], on_progress=lambda f, m: seen.append((f, m)))
+    assert seen[0][0] == 0.0 and seen[-1][0] == 1.0
+    assert all(0.0 <= f <= 1.0 for f, _ in seen)
+
+
+def test_tables_parameters_and_expressions():
+    """g from a 1-D and a 2-D table (constant values), a static parameter scaling the drag-free
+    dynamics, boundary constraints on parameters: the brachistochrone's optimum again."""
+    params = copy.deepcopy(PRESETS["brachistochrone"]["params"])
+    params["tables"] = {"g1": {"axes": [[-100.0, 0.0, 50.0, 100.0]], "values": [9.80665] * 4},
+                        "g2": {"axes": [[-100.0, 100.0], [-100.0, 0.0, 100.0]], "values": [1.0] * 6}}
+    params["parameters"] = [{"name": "k", "lower": 0.5, "upper": 2.0, "guess": 1.2}]
+    params["boundary"] = [{"expr": "k", "lower": 1.0, "upper": 1.0, "name": "k_is_one"}]
+    params["expressions"] = {"gg": "g1(y) * g2(x, y) * k", "speed2": "v**2"}
+    params["dynamics"]["v"] = "gg*cos(theta)"
+    params["path"] = [{"expr": "speed2 - 2*g*(10 - y)", "lower": -1e-3, "upper": 1e-3, "name": "energy"}]
+    sol = run(params)
+    assert sol.status.outcome is Outcome.OPTIMAL, sol.status.message
+    assert sol.objective == pytest.approx(1.8016, abs=1e-4)
+    assert sol.parameters["k"] == pytest.approx(1.0, abs=1e-8)
+    assert np.allclose(sol.trajectory["gg"], 9.80665)
+    assert np.allclose(sol.trajectory["speed2"], sol.trajectory["v"] ** 2)
+
+
+def test_lagrange_and_mayer_with_free_parameter():
+    """x' = k, x(0) = 0, x(1) = 1: the optimizer picks k = 1; minimize int u^2 + (k - 1)^2 with
+    v' = u - k from rest to rest: u = k."""
+    params = {
+        "states": [{"name": "x", "initial": 0.0, "final": 1.0}, {"name": "v", "initial": 0.0, "final": 0.0}],
+        "controls": [{"name": "u", "lower": -5.0, "upper": 5.0}],
+        "parameters": [{"name": "k", "lower": -3.0, "upper": 3.0}],
+        "time": {"initial": 0.0, "final": 1.0},
+        "dynamics": {"x": "k", "v": "u - k"},
+        "objective": {"sense": "minimize", "expr": "(k - 1)**2", "integrand": "u**2"},
+        "transcription": {"intervals": 10},
+    }
+    sol = run(params)
+    assert sol.status.outcome is Outcome.OPTIMAL
+    assert sol.parameters["k"] == pytest.approx(1.0, abs=1e-6)
+    assert sol.objective == pytest.approx(1.0, abs=1e-6)
+    assert np.allclose(sol.trajectory["u"], 1.0, atol=1e-6)
+
+
+def test_coarse_lgl_that_exploits_the_grid_is_flagged():
+    params = copy.deepcopy(PRESETS["hang-glider"]["params"])
+    params["transcription"] = {"method": "lgl", "intervals": 25, "nodes": 4}
+    sol = run(params)
+    if sol.status.ok and sol.verification["max_state_difference_scaled_overall"] > 1e-2:
+        assert not sol.verification["agrees"]
+        assert any("depart" in n for n in sol.notes)
