@@ -8,15 +8,9 @@ parameters when drawn.
 """
 from __future__ import annotations
 
-from app.results.plots import PlotDef
+from app.results.plots import PlotDef, floats, pick
 
 MAX_TIME_PLOTS = 300   # 50 states + 20 controls + 200 expressions fit; a bound on a report's size
-
-
-def _a(values):
-    import numpy as np
-
-    return np.array([np.nan if v is None else v for v in values], dtype=float)
 
 
 def _label(name: str, result: dict) -> str:
@@ -36,7 +30,7 @@ def _bounds(params: dict | None, name: str) -> tuple[float | None, float | None]
 
 
 def _dense(result: dict) -> dict | None:
-    dense = (result.get("verification") or {}).get("trajectory")
+    dense = pick(result, "verification.trajectory")   # the re-flight's dense points, when the solver keeps them
     return dense if isinstance(dense, dict) and dense.get("t") else None
 
 
@@ -44,10 +38,10 @@ def _against_time(name: str):
     def draw(fig, r, params):
         ax = fig.add_subplot()
         tr = r["trajectory"]
-        ax.plot(_a(tr["t"]), _a(tr[name]), "o-", ms=3, lw=1, label="solution (nodes)")
+        ax.plot(floats(tr["t"]), floats(tr[name]), "o-", ms=3, lw=1, label="solution (nodes)")
         dense = _dense(r)
         if dense and dense.get(name):
-            ax.plot(_a(dense["t"]), _a(dense[name]), "-", lw=1, label="re-flown (verification)")
+            ax.plot(floats(dense["t"]), floats(dense[name]), "-", lw=1, label="re-flown (verification)")
         lo, hi = _bounds(params, name)
         for b, what in ((lo, "lower bound"), (hi, "upper bound")):
             if b is not None:
@@ -62,10 +56,10 @@ def _pair(x: str, y: str):
     def draw(fig, r, params):
         ax = fig.add_subplot()
         tr = r["trajectory"]
-        ax.plot(_a(tr[x]), _a(tr[y]), "o-", ms=3, lw=1, label="solution (nodes)")
+        ax.plot(floats(tr[x]), floats(tr[y]), "o-", ms=3, lw=1, label="solution (nodes)")
         dense = _dense(r)
         if dense and dense.get(x) and dense.get(y):
-            ax.plot(_a(dense[x]), _a(dense[y]), "-", lw=1, label="re-flown (verification)")
+            ax.plot(floats(dense[x]), floats(dense[y]), "-", lw=1, label="re-flown (verification)")
         ax.set_xlabel(_label(x, r) if x != "t" else "t (s)")
         ax.set_ylabel(_label(y, r) if y != "t" else "t (s)")
         ax.legend()
