@@ -18,8 +18,15 @@ build + solve: trajlab within 1.2x of the faster hand-written form on the same g
   midpoints) on the same number of intervals, ``expand=True``.
 
 IPOPT as in :data:`solvers.transcription.nlp.DEFAULT_IPOPT` (tol 1e-8, MUMPS) for all.  Times are
-best of ``--reps``; this machine's 2 shared cores make single runs noisy.  rockit and Dymos are
-not run here (not installed in this environment; see the issue for their figures).
+best of ``--reps``; this machine's 2 shared cores make single runs noisy.
+
+* **rockit** 0.6.7 (when installed, ``--skip-rockit`` to leave it out): ``MultipleShooting`` with the
+  same substeps but rockit's piecewise-constant controls; total time only.
+* **reentry kind** (betts-shuttle-ocp only): the ``reentry`` kind's own solve of the same problem
+  against the ocp kind's whole solve (both with their verification; target within 2x).
+
+Dymos is not run here: its shuttle runs in benchmarks.reentry, and without pyOptSparse only SLSQP
+drives it, no fair baseline (the issue's figures: Dymos Gauss-Lobatto 1.06 s on the brachistochrone).
 """
 from __future__ import annotations
 
@@ -209,6 +216,71 @@ def opti_baseline(name: str, method: str) -> dict:
             "status": str(stats.get("return_status"))}
 
 
+def rockit_baseline(name: str) -> dict | None:
+    """The preset in rockit 0.6.7 (``pip install -e .[bench]``): ``MultipleShooting`` with the
+    preset's RK4 substeps, rockit's piecewise-constant controls, the states scaled by hand as in
+    the Opti forms, the same straight-line guess as functions of ``ocp.t``, ``expand=True``."""
+    try:
+        from rockit import FreeTime, MultipleShooting, Ocp
+    except ImportError:
+        return None
+    t_start = time.perf_counter()
+    problem = parse_problem(PRESETS[name]["params"])
+    ph, grid = problem.phase, grid_of(problem)
+    dyn, mayer, sign = HAND[name]
+    nx, nu, m = len(ph.states), len(ph.controls), grid.intervals
+    xs = np.array([s.scale or max([abs(a) for a in (s.lower, s.upper, s.initial, s.final) if a not in (None, 0)] or [1])
+                   for s in ph.states])
+    us = np.array([k.scale or max([abs(a) for a in (k.lower, k.upper) if a not in (None, 0)] or [1]) for k in ph.controls])
+    xl, xu, ul, uu = _bounds(problem)
+    tf_g, _, X_g, U_g = guess_of(problem, grid)
+    fixed_tf = ph.time.final is not None
+    ocp = Ocp(T=ph.time.final if fixed_tf else FreeTime(tf_g))
+    zs = [ocp.state() for _ in range(nx)]         # one primitive each: rockit's set_initial wants those
+    vs = [ocp.control() for _ in range(nu)]
+    z, v = ca.vertcat(*zs), ca.vertcat(*vs)
+    x, u = z * ca.DM(xs), v * ca.DM(us)
+    fx, fq = dyn(x, u)
+    for i in range(nx):
+        ocp.set_der(zs[i], fx[i] / xs[i])
+    J = sign * (ocp.at_tf(mayer(ocp.at_tf(x), ocp.T)) if name != "bryson-denham" else 0)
+    if name == "bryson-denham":
+        J = ocp.integral(fq)
+    for i, st in enumerate(ph.states):
+        if st.initial is not None:
+            ocp.subject_to(ocp.at_t0(z[i]) == st.initial / xs[i])
+        if st.final is not None:
+            ocp.subject_to(ocp.at_tf(z[i]) == st.final / xs[i])
+        if np.isfinite(xl[i]):
+            ocp.subject_to(xl[i] / xs[i] <= zs[i])
+        if np.isfinite(xu[i]):
+            ocp.subject_to(zs[i] <= xu[i] / xs[i])
+        ocp.set_initial(zs[i], (X_g[i, 0] + (X_g[i, -1] - X_g[i, 0]) * ocp.t / tf_g) / xs[i])
+    for i in range(nu):
+        if np.isfinite(ul[i]) or np.isfinite(uu[i]):
+            ocp.subject_to(ul[i] / us[i] <= (vs[i] <= uu[i] / us[i]))
+        ocp.set_initial(vs[i], U_g[i, 0] / us[i])
+    for c in ph.path:
+        i = ph.state_names.index(c.text)
+        ocp.subject_to(zs[i] <= c.upper / xs[i])
+    if not fixed_tf:
+        ocp.subject_to(ph.time.final_lower <= (ocp.T <= ph.time.final_upper))
+    ocp.add_objective(J)
+    ocp.solver("ipopt", {"expand": True, "print_time": False, "ipopt": IPOPT})
+    ocp.method(MultipleShooting(N=m, M=grid.substeps, intg="rk"))
+    try:
+        sol = ocp.solve()
+        stats = sol.stats
+        objective = sign * float(sol.value(J))
+    except RuntimeError as e:              # rockit raises on IPOPT failure
+        return {"total_s": time.perf_counter() - t_start, "build_s": float("nan"), "ipopt_s": float("nan"),
+                "iterations": -1, "objective": float("nan"), "status": str(e)[:40]}
+    total = time.perf_counter() - t_start
+    return {"total_s": total, "build_s": float("nan"), "ipopt_s": float("nan"),
+            "iterations": int(stats.get("iter_count", -1)), "objective": objective,
+            "status": str(stats.get("return_status"))}
+
+
 def trajlab(name: str) -> dict:
     reset_caches()
     clear_cache()
@@ -221,6 +293,27 @@ def trajlab(name: str) -> dict:
             "verify_s": total - s.solver["build_time_s"] - s.solver["solve_time_s"]}
 
 
+def reentry_kind_ratio(ours: dict, reps: int) -> dict | None:
+    """The ``reentry`` kind's own solve of the same problem (betts-max-crossrange: build, IPOPT and its
+    verification), cold, best of ``reps``, against trajlab's whole ocp solve (issue 24: within 2x)."""
+    try:
+        from solvers.reentry import ReentryProblem
+        from solvers.reentry import solve as reentry_solve
+    except ImportError:
+        return None
+
+    def once():
+        clear_cache()
+        t = time.perf_counter()
+        s = reentry_solve(ReentryProblem())
+        return {"total_s": time.perf_counter() - t, "status": s.status.solver_status}
+    theirs = min((once() for _ in range(reps)), key=lambda r: r["total_s"])
+    ratio = ours["total_s"] / theirs["total_s"]
+    print(f"{'':<19}whole solve with verification: ocp {ours['total_s']:.3f} s, reentry kind "
+          f"{theirs['total_s']:.3f} s: {ratio:.2f}x (target <= 2x: {'met' if ratio <= 2 else 'MISSED'})")
+    return {"reentry_total_s": theirs["total_s"], "ocp_total_s": ours["total_s"], "ratio": ratio}
+
+
 def best(fn, reps: int) -> dict:
     runs = [fn() for _ in range(reps)]
     return min(runs, key=lambda r: r["total_s"] - r.get("verify_s", 0.0))
@@ -230,6 +323,7 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--only", help="comma-separated presets")
     ap.add_argument("--reps", type=int, default=3)
+    ap.add_argument("--skip-rockit", action="store_true")
     ap.add_argument("--save", action="store_true", help="merge the figures into benchmarks/results/latest.json")
     args = ap.parse_args()
     names = args.only.split(",") if args.only else list(HAND)
@@ -244,6 +338,9 @@ def main() -> int:
         ours_bs = ours["build_s"] + ours["ipopt_s"]
         faster = min(ms["total_s"], hs["total_s"])
         rows = [("trajlab", ours, ours_bs), ("Opti MS", ms, ms["total_s"]), ("Opti HS", hs, hs["total_s"])]
+        rk = None if args.skip_rockit else best(lambda name=name: rockit_baseline(name) or {"total_s": float("nan")}, args.reps)
+        if rk is not None and "status" in rk:
+            rows.append(("rockit", rk, rk["total_s"]))
         for form, r, bs in rows:
             print(f"{name:<19}{form:<10}{grid.intervals:>6}{r['build_s']:>9.3f}{r['ipopt_s']:>9.3f}{bs:>8.3f}"
                   f"{r['iterations']:>6}{r['objective']:>14.7g}{bs / faster:>7.2f}  {r['status']}")
@@ -251,7 +348,9 @@ def main() -> int:
               f"target build+solve <= 1.2x the faster hand-written form: "
               f"{'met' if ours_bs <= 1.2 * faster else 'MISSED'} ({ours_bs / faster:.2f}x)")
         figures[name] = {"intervals": grid.intervals, "trajlab": ours, "opti_ms": ms, "opti_hs": hs,
-                         "ratio_vs_faster_hand_written": ours_bs / faster}
+                         "rockit": rk, "ratio_vs_faster_hand_written": ours_bs / faster}
+        if name == "betts-shuttle-ocp":
+            figures[name]["reentry_kind"] = reentry_kind_ratio(ours, args.reps)
     if args.save:
         from benchmarks.results import write_results
         write_results("ocp", figures)
