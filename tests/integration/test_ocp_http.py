@@ -38,9 +38,10 @@ def test_brachistochrone_preset_reaches_the_published_minimum_time(service, brac
     ver = result["verification"]
     assert ver["ok"] and ver["limits_held"] is True
     # the re-flown controls land on the solution to the method's accuracy (scaled by each state's scale)
-    assert ver["max_state_difference_scaled_overall"] < 1e-4
+    assert ver["max_state_difference_scaled_overall"] < 1e-4 and ver["agrees"] is True
     numbers = service.client.get(f"/console/jobs/{job['id']}/numbers").json()
     assert numbers["objective"] == result["objective"]["value"] and numbers["limits_held"] is True
+    assert numbers["verification_agrees"] is True
 
 
 def test_plots_tables_and_report_are_served(service, brachistochrone):

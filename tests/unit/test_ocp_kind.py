@@ -255,7 +255,7 @@ RESULT = {
     "parameters": {}, "units": {"x": "m", "y": "m"},
     "trajectory": {"t": [0.0, 0.9, 1.8016], "x": [0.0, 3.0, 10.0], "y": [10.0, 7.0, 5.0],
                    "v": [0.0, 6.0, None], "theta": [0.1, 1.0, 1.5], "speed": [0.0, 6.0, 9.9]},
-    "verification": {"limits_held": True},
+    "verification": {"limits_held": True, "agrees": True, "agreement_tolerance": 1e-4},
     "solver": {"status": "Solve_Succeeded", "iterations": 12, "build_time_s": 0.1, "solve_time_s": 0.02,
                "max_constraint_violation": 1e-10},
     "plots": [["x", "y"]], "notes": [],
@@ -266,7 +266,7 @@ def test_key_numbers_plots_and_the_result_model_of_a_result():
     from app.results.plots import plots_for, render
 
     assert key_numbers(RESULT) == {"objective": 1.8016, "sense": "minimize", "tf": 1.8016, "iterations": 12,
-                                   "limits_held": True}
+                                   "limits_held": True, "verification_agrees": True}
     names = [p.name for p in plots_for("ocp", RESULT)]
     assert names == ["t-x", "t-y", "t-v", "t-theta", "t-speed", "x-y"]
     assert [p.name for p in plots(RESULT)] == names

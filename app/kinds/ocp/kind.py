@@ -75,12 +75,16 @@ def _limits_held(verification) -> bool | None:
 
 
 def key_numbers(result: dict) -> dict:
-    """Objective (in the user's sense), final time, and whether every limit held on the dense re-flight."""
+    """Objective (in the user's sense), final time, iterations, and what the dense re-flight found: whether
+    every limit held and whether the re-flown states agree with the solution."""
     out = {"objective": result["objective"]["value"], "sense": result["objective"]["sense"],
            "tf": result["tf"], "iterations": (result.get("solver") or {}).get("iterations")}
     held = _limits_held(result.get("verification"))
     if held is not None:
         out["limits_held"] = held
+    agrees = (result.get("verification") or {}).get("agrees")
+    if isinstance(agrees, bool):
+        out["verification_agrees"] = agrees
     return out
 
 

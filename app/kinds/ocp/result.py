@@ -69,6 +69,10 @@ class OcpResultVerification(ResultModel):
     max_state_difference_scaled: dict[str, Num] | None = Field(
         None, description="state name -> the same divided by the state's scale")
     max_state_difference_scaled_overall: Num = Field(None, description="Largest scaled difference of any state")
+    agrees: bool | None = Field(None, description="The re-flown states agree with the solution within "
+                                "agreement_tolerance (scaled); false: the grid is too coarse for this problem")
+    agreement_tolerance: Num = Field(None, description="Largest scaled difference counted as agreement "
+                                     "(the problem's `accuracy`, or the service's default)")
     path: dict[str, OcpResultPathCheck] | None = Field(None, description="path constraint name -> its check "
                                                        "on the dense grid")
     limits_held: bool | None = Field(None, description="Every path constraint held on the dense grid")
