@@ -105,6 +105,18 @@ HAND = {
 }
 
 
+def _setup(name: str):
+    """What both hand-written forms take from the preset: the problem, its phase and grid, the
+    dynamics by hand, the scales, the bounds and trajlab's straight-line guess."""
+    problem = parse_problem(PRESETS[name]["params"])
+    ph, grid = problem.phase, grid_of(problem)
+    xs = np.array([s.scale or max([abs(a) for a in (s.lower, s.upper, s.initial, s.final) if a not in (None, 0)] or [1])
+                   for s in ph.states])
+    us = np.array([k.scale or max([abs(a) for a in (k.lower, k.upper) if a not in (None, 0)] or [1]) for k in ph.controls])
+    tf_g, _, X_g, U_g = guess_of(problem, grid)
+    return ph, grid, HAND[name], xs, us, _bounds(problem), (tf_g, X_g, U_g)
+
+
 def _bounds(problem):
     ph = problem.phase
     big = np.inf
@@ -118,15 +130,8 @@ def _bounds(problem):
 def opti_baseline(name: str, method: str) -> dict:
     """The preset by hand in Opti: ``method`` "ms" (RK4, the preset's substeps and controls) or "hs"."""
     t_start = time.perf_counter()
-    problem = parse_problem(PRESETS[name]["params"])
-    ph, grid = problem.phase, grid_of(problem)
-    dyn, mayer, sign = HAND[name]
+    ph, grid, (dyn, mayer, sign), xs, us, (xl, xu, ul, uu), (tf_g, X_g, U_g) = _setup(name)
     nx, nu, m = len(ph.states), len(ph.controls), grid.intervals
-    xs = np.array([s.scale or max([abs(a) for a in (s.lower, s.upper, s.initial, s.final) if a not in (None, 0)] or [1])
-                   for s in ph.states])
-    us = np.array([k.scale or max([abs(a) for a in (k.lower, k.upper) if a not in (None, 0)] or [1]) for k in ph.controls])
-    xl, xu, ul, uu = _bounds(problem)
-    tf_g, _, X_g, U_g = guess_of(problem, grid)
     xs_s, us_s = ca.SX.sym("x", nx), ca.SX.sym("u", nu)
     fx, fq = dyn(xs_s, us_s)
     f = ca.Function("f", [xs_s, us_s], [fx, fq])
@@ -225,15 +230,8 @@ def rockit_baseline(name: str) -> dict | None:
     except ImportError:
         return None
     t_start = time.perf_counter()
-    problem = parse_problem(PRESETS[name]["params"])
-    ph, grid = problem.phase, grid_of(problem)
-    dyn, mayer, sign = HAND[name]
+    ph, grid, (dyn, mayer, sign), xs, us, (xl, xu, ul, uu), (tf_g, X_g, U_g) = _setup(name)
     nx, nu, m = len(ph.states), len(ph.controls), grid.intervals
-    xs = np.array([s.scale or max([abs(a) for a in (s.lower, s.upper, s.initial, s.final) if a not in (None, 0)] or [1])
-                   for s in ph.states])
-    us = np.array([k.scale or max([abs(a) for a in (k.lower, k.upper) if a not in (None, 0)] or [1]) for k in ph.controls])
-    xl, xu, ul, uu = _bounds(problem)
-    tf_g, _, X_g, U_g = guess_of(problem, grid)
     fixed_tf = ph.time.final is not None
     ocp = Ocp(T=ph.time.final if fixed_tf else FreeTime(tf_g))
     zs = [ocp.state() for _ in range(nx)]         # one primitive each: rockit's set_initial wants those

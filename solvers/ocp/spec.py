@@ -42,6 +42,7 @@ __all__ = [
     "TableDecl",
     "TimeSpec",
     "Transcription",
+    "VariableDecl",
     "parse_problem",
 ]
 
@@ -50,6 +51,8 @@ TOP_FIELDS = ("title", "constants", "tables", "states", "controls", "parameters"
               "expressions", "dynamics", "path", "boundary", "objective", "transcription", "guess",
               "accuracy", "plots")
 METHODS = ("multiple_shooting", "lgl")
+PHASE_FIELDS = ("states", "controls", "time", "expressions", "dynamics", "path", "boundary", "transcription",
+                "guess", "state_names", "control_names")
 
 
 @dataclass(frozen=True)
@@ -69,10 +72,11 @@ class OcpLimits:
 
 
 @dataclass(frozen=True)
-class StateDecl:
+class VariableDecl:
+    """What states and controls declare alike: bounds over the whole phase, a typical magnitude
+    (``scale``; by default the largest finite bound or boundary value) and a unit for display."""
+
     name: str
-    initial: float | None = None      # a number fixes the value at t0, None leaves it free
-    final: float | None = None
     lower: float | None = None
     upper: float | None = None
     scale: float | None = None
@@ -80,12 +84,14 @@ class StateDecl:
 
 
 @dataclass(frozen=True)
-class ControlDecl:
-    name: str
-    lower: float | None = None
-    upper: float | None = None
-    scale: float | None = None
-    unit: str | None = None
+class ControlDecl(VariableDecl):
+    pass
+
+
+@dataclass(frozen=True)
+class StateDecl(VariableDecl):
+    initial: float | None = None      # a number fixes the value at t0, None leaves it free
+    final: float | None = None
 
 
 @dataclass(frozen=True)
@@ -183,42 +189,11 @@ class OcpProblem:
     accuracy: float | None = None
     plots: tuple[tuple[str, str], ...] = ()
 
-    # The single phase's fields, read as the spec names them.
-    @property
-    def states(self):
-        return self.phase.states
-
-    @property
-    def controls(self):
-        return self.phase.controls
-
-    @property
-    def time(self):
-        return self.phase.time
-
-    @property
-    def expressions(self):
-        return self.phase.expressions
-
-    @property
-    def dynamics(self):
-        return self.phase.dynamics
-
-    @property
-    def path(self):
-        return self.phase.path
-
-    @property
-    def boundary(self):
-        return self.phase.boundary
-
-    @property
-    def transcription(self):
-        return self.phase.transcription
-
-    @property
-    def guess(self):
-        return self.phase.guess
+    def __getattr__(self, name: str):
+        # The single phase's fields read as the spec names them (problem.states, problem.dynamics).
+        if name in PHASE_FIELDS:
+            return getattr(self.phase, name)
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
     def structure(self) -> tuple:
         """What the NLP's symbolic graph depends on (the solver cache key): names, trees, tables,
