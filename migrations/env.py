@@ -1,11 +1,11 @@
-"""Alembic environment: URL from app.settings (or -x url=...), batch mode on SQLite."""
+"""Alembic environment: URL from app.runtime.settings (or -x url=...), batch mode on SQLite."""
 from __future__ import annotations
 
 from alembic import context
 
-from app.db import make_engine
-from app.models import Base
-from app.settings import get_settings
+from app.runtime.db import make_engine
+from app.runtime.models import Base
+from app.runtime.settings import get_settings
 
 config = context.config
 

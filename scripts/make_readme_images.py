@@ -8,7 +8,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from app.kinds import KINDS, PRESETS
-from app.params import resolve_params
+from app.api.params import resolve_params
 from app.results import plots
 from tests.support import RecordingContext
 

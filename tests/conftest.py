@@ -15,8 +15,8 @@ os.environ.setdefault("TRAJLAB_AUTH", "off")
 # for its worker); tests/unit/test_jit.py sets the mode itself.
 os.environ.setdefault("TRAJLAB_JIT", "off")
 
-from app.db import get_database
-from app.migrate import upgrade
+from app.runtime.db import get_database
+from app.runtime.migrate import upgrade
 
 
 @pytest.fixture()

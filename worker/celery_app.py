@@ -2,16 +2,16 @@
 
 The database is the truth; Celery only delivers ``(job_id, attempt)`` messages,
 so no result backend is configured.  The settings themselves live in
-``app.broker`` so the API's producer and this consumer cannot drift apart.
+``app.service.broker`` so the API's producer and this consumer cannot drift apart.
 Recovery (the reaper and the re-publisher) is not scheduled here: it runs in
-``app.recovery``'s own loop, outside the job queues.
+``app.service.recovery``'s own loop, outside the job queues.
 """
 from __future__ import annotations
 
 from celery import Celery
 
-from app.broker import celery_config
-from app.settings import Settings, get_settings
+from app.service.broker import celery_config
+from app.runtime.settings import Settings, get_settings
 
 
 def create_celery(settings: Settings | None = None) -> Celery:

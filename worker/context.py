@@ -12,10 +12,10 @@ from __future__ import annotations
 import threading
 import time
 
-from app import jobs
-from app.broker import redis_client
-from app.db import Database
-from app.settings import Settings
+from app.service import jobs
+from app.service.broker import redis_client, time_limit_s
+from app.runtime.db import Database
+from app.runtime.settings import Settings
 
 
 class WorkerJobContext:
@@ -26,7 +26,7 @@ class WorkerJobContext:
         self.job_id = claim.job_id
         self.attempt = claim.attempt
         self.interval = settings.heartbeat_interval_s
-        self.deadline = time.monotonic() + settings.time_limit_s(claim.kind)
+        self.deadline = time.monotonic() + time_limit_s(settings, claim.kind)
         self._progress = 0.0
         self._message: str | None = None
         self.cancel_requested = False

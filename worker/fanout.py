@@ -18,7 +18,7 @@ from typing import Callable
 
 import redis
 
-from app.broker import QUEUE_HEAVY
+from app.service.broker import QUEUE_HEAVY
 from app.kinds.base import JobCancelled
 from solvers.uncertainty.montecarlo import merge_chunks, simulate_chunk
 

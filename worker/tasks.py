@@ -1,8 +1,8 @@
 """Celery tasks: deliver a job to its kind's ``run``; compute Monte Carlo chunks.
 
 Everything a test wants to exercise lives in :func:`execute_job` and in
-``app.jobs``; the task functions only bind them to Celery.  Recovery (stale
-jobs, lost messages) is not a task: it runs in ``app.recovery``'s own loop, so a
+``app.service.jobs``; the task functions only bind them to Celery.  Recovery (stale
+jobs, lost messages) is not a task: it runs in ``app.service.recovery``'s own loop, so a
 backlog in these queues never delays it.
 
 A delivery that cannot reach the database is never acknowledged as done: the
@@ -20,13 +20,13 @@ from celery.exceptions import SoftTimeLimitExceeded
 from sqlalchemy.exc import DBAPIError, OperationalError
 from sqlalchemy.exc import TimeoutError as PoolTimeout
 
-from app import jobs, studies
-from app.broker import redis_client
-from app.recovery import publish_or_defer
-from app.db import Database, get_database
+from app.service import jobs, studies
+from app.service.broker import redis_client, time_limit_s
+from app.service.recovery import publish_or_defer
+from app.runtime.db import Database, get_database
 from app.kinds import KINDS
 from app.kinds.base import JobCancelled, JobFailure, RunOutcome
-from app.settings import Settings, get_settings
+from app.runtime.settings import Settings, get_settings
 from worker import fanout
 from worker.celery_app import celery_app
 from worker.context import WorkerJobContext
@@ -102,7 +102,7 @@ def _store(db: Database, settings: Settings, job_id: str, attempt: int, outcome:
 
 def _time_limit_error(settings: Settings, kind: str) -> dict:
     return {"code": "time_limit",
-            "message": f"the {kind} job ran past its time limit of {settings.time_limit_s(kind):.0f} s "
+            "message": f"the {kind} job ran past its time limit of {time_limit_s(settings, kind):.0f} s "
                        f"(TRAJLAB_TIME_LIMIT_{kind.upper()}_S)"}
 
 

@@ -135,11 +135,11 @@ class KindSpec:
     summary: str = ""
     # Soft Celery time limit; TRAJLAB_TIME_LIMIT_<KIND>_S overrides it (Settings.time_limit_s).
     time_limit_s: float = 600.0
-    # The few numbers the CLI, the console and trade tables show (app.summary); None: a generic pick.
+    # The few numbers the CLI, the console and trade tables show (app.service.summary); None: a generic pick.
     key_numbers: Callable[[dict], dict] | None = None
     # Typed model of the stored result, for documentation and validation; None: untyped JSON.
     result_model: type[BaseModel] | None = None
-    # Estimated cost in app.quota's work units from the resolved params; None: app.quota's own table.
+    # Estimated cost in app.service.quota's work units from the resolved params; None: app.service.quota's own table.
     cost: Callable[[dict], float] | None = None
     # The plots of one result (app.results.plots.PlotDef list; app/kinds/<kind>/plots.py); None: no plots.
     plots: Callable[[dict], list] | None = None

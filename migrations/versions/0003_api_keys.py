@@ -1,4 +1,4 @@
-"""api_keys: hashed API keys, their owner and admin flag (app.auth)
+"""api_keys: hashed API keys, their owner and admin flag (app.api.auth)
 
 Revision ID: 0003
 Revises: 0002

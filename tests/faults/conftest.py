@@ -14,10 +14,10 @@ from pathlib import Path
 import pytest
 from fastapi.testclient import TestClient
 
-from app.broker import QUEUES
-from app.main import create_app
-from app.migrate import upgrade
-from app.settings import Settings
+from app.service.broker import QUEUES
+from app.api.main import create_app
+from app.runtime.migrate import upgrade
+from app.runtime.settings import Settings
 from tests.faults.servers import PostgresServer, RedisServer
 from tests.integration.live import stop_group
 
@@ -53,7 +53,7 @@ class Stack:
                                "-Q", ",".join(QUEUES)])
 
     def start_recovery(self) -> None:
-        self._spawn("recover", [sys.executable, "-m", "app.cli", "recover"])
+        self._spawn("recover", [sys.executable, "-m", "app.cli.commands", "recover"])
 
     def kill(self, name: str) -> None:
         proc = self.procs.pop(name, None)

@@ -45,7 +45,7 @@ def _serve(data: Path, port: int) -> subprocess.Popen:
     env = {k: v for k, v in os.environ.items() if k not in ("TRAJLAB_BROKER_URL", "TRAJLAB_DATABASE_URL")}
     env.update({"TRAJLAB_DATA_DIR": str(data), "TRAJLAB_REAPER_INTERVAL_S": "1", "TRAJLAB_REPUBLISH_AFTER_S": "2",
                 "PYTHONPATH": str(ROOT)})
-    return subprocess.Popen([sys.executable, "-m", "app.cli", "serve", "--port", str(port)], cwd=ROOT, env=env,
+    return subprocess.Popen([sys.executable, "-m", "app.cli.commands", "serve", "--port", str(port)], cwd=ROOT, env=env,
                             stdout=open(data.parent / "serve.log", "ab"), stderr=subprocess.STDOUT)
 
 
@@ -84,7 +84,7 @@ def test_a_taken_port_is_one_line_and_nothing_starts(tmp_path):
         port = s.getsockname()[1]
         data = tmp_path / "data"
         env = {**os.environ, "TRAJLAB_DATA_DIR": str(data)}
-        p = subprocess.run([sys.executable, "-m", "app.cli", "serve", "--port", str(port)], cwd=ROOT, env=env,
+        p = subprocess.run([sys.executable, "-m", "app.cli.commands", "serve", "--port", str(port)], cwd=ROOT, env=env,
                            capture_output=True, text=True, timeout=60)
     assert p.returncode == 2
     lines = [line for line in p.stderr.splitlines() if line.strip()]

@@ -8,7 +8,7 @@ import time
 import pytest
 import redis as redis_lib
 
-from app.broker import QUEUE_JOBS
+from app.service.broker import QUEUE_JOBS
 from tests.faults.conftest import report
 
 pytestmark = [pytest.mark.integration, pytest.mark.faults]

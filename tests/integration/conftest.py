@@ -21,10 +21,10 @@ import pytest
 import redis
 from fastapi.testclient import TestClient
 
-from app.broker import QUEUES
-from app.main import create_app
-from app.migrate import upgrade
-from app.settings import Settings
+from app.service.broker import QUEUES
+from app.api.main import create_app
+from app.runtime.migrate import upgrade
+from app.runtime.settings import Settings
 
 ROOT = Path(__file__).resolve().parents[2]
 PG_ADMIN_URL = os.environ.get("TRAJLAB_TEST_PG_ADMIN", "postgresql://postgres@127.0.0.1:5432/test")
@@ -127,7 +127,7 @@ class Service:
     # --- the recovery loop (reaper, re-publisher), its own process as in production ------
     def start_recovery(self) -> None:
         log = open(self.log_dir / "recover.log", "ab")
-        self.recovery = subprocess.Popen([sys.executable, "-m", "app.cli", "recover"], cwd=ROOT, env=self.env,
+        self.recovery = subprocess.Popen([sys.executable, "-m", "app.cli.commands", "recover"], cwd=ROOT, env=self.env,
                                          stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
 
     def stop_recovery(self) -> None:

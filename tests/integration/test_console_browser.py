@@ -99,8 +99,8 @@ def test_compare_two_jobs_on_one_plot(browser_page, service):
 def test_with_keys_the_console_asks_once_and_shows_only_that_owners_jobs(browser_page, service):
     from fastapi.testclient import TestClient
 
-    from app.auth import create_key
-    from app.main import create_app
+    from app.api.auth import create_key
+    from app.api.main import create_app
 
     _, page, _ = browser_page
     settings = service.settings.model_copy(update={"auth": "required"})

@@ -5,7 +5,7 @@ import time
 
 import pytest
 
-from app.client import parse_sse
+from app.cli.client import parse_sse
 
 pytestmark = pytest.mark.integration
 

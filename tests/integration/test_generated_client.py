@@ -21,7 +21,7 @@ pytestmark = pytest.mark.integration
 def generated(tmp_path_factory):
     import json
 
-    from app.main import create_app
+    from app.api.main import create_app
 
     root = tmp_path_factory.mktemp("client")
     (root / "openapi.json").write_text(json.dumps(create_app().openapi()))

@@ -1,4 +1,4 @@
-"""The one-query job listing (app.jobs.list_jobs_json: the total as a scalar subquery, params as the stored
+"""The one-query job listing (app.service.jobs.list_jobs_json: the total as a scalar subquery, params as the stored
 JSON text) on PostgreSQL, whose ``json`` column gives its text back as written: the same document as before."""
 from __future__ import annotations
 
@@ -6,8 +6,8 @@ import uuid
 
 import pytest
 
-from app.db import Database
-from app.migrate import upgrade
+from app.runtime.db import Database
+from app.runtime.migrate import upgrade
 from tests.unit.test_job_json import check_listing
 
 pytestmark = pytest.mark.integration

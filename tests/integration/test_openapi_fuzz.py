@@ -13,9 +13,9 @@ from hypothesis import HealthCheck, settings
 from schemathesis.checks import not_a_server_error
 from schemathesis.specs.openapi.checks import status_code_conformance
 
-from app.main import create_app
-from app.migrate import upgrade
-from app.settings import Settings
+from app.api.main import create_app
+from app.runtime.migrate import upgrade
+from app.runtime.settings import Settings
 from tests.integration.conftest import REDIS_URL, claim_redis_db
 
 pytestmark = pytest.mark.integration

@@ -18,11 +18,11 @@ import uuid
 import pytest
 from fastapi.testclient import TestClient
 
-from app import jobs
-from app.broker import QUEUE_HEAVY, QUEUE_JOBS
-from app.main import create_app
-from app.migrate import upgrade
-from app.settings import Settings
+from app.service import jobs
+from app.service.broker import QUEUE_HEAVY, QUEUE_JOBS
+from app.api.main import create_app
+from app.runtime.migrate import upgrade
+from app.runtime.settings import Settings
 from tests.integration.conftest import REDIS_URL, ROOT, claim_redis_db
 from tests.integration.live import stop_group
 
@@ -55,7 +55,7 @@ class Secure:
 
 
 def _cli(env: dict, *args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "app.cli", *args], cwd=ROOT, env=env,
+    return subprocess.run([sys.executable, "-m", "app.cli.commands", *args], cwd=ROOT, env=env,
                           capture_output=True, text=True, timeout=60)
 
 

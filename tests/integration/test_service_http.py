@@ -9,7 +9,7 @@ import uuid
 
 import pytest
 
-from app.migrate import check
+from app.runtime.migrate import check
 
 pytestmark = pytest.mark.integration
 
@@ -128,9 +128,9 @@ def test_worker_killed_mid_job_is_requeued_by_reaper(service):
 def test_production_process_commands(service, pg_url, redis_url):
     """The commands docker-compose runs (migrate, api) work outside Docker against the real services."""
     env = {**service.env}
-    subprocess.run([sys.executable, "-m", "app.cli", "migrate"], env=env, check=True, timeout=120)
+    subprocess.run([sys.executable, "-m", "app.cli.commands", "migrate"], env=env, check=True, timeout=120)
     port = 18000 + os.getpid() % 1000
-    api = subprocess.Popen([sys.executable, "-m", "app.cli", "api", "--host", "127.0.0.1", "--port", str(port)],
+    api = subprocess.Popen([sys.executable, "-m", "app.cli.commands", "api", "--host", "127.0.0.1", "--port", str(port)],
                            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         import httpx
@@ -151,7 +151,7 @@ def test_production_process_commands(service, pg_url, redis_url):
 
 
 def test_a_duplicate_message_of_a_running_job_is_dropped(service):
-    from app.broker import publish_job
+    from app.service.broker import publish_job
 
     job = service.submit("midcourse", preset="upper-stage-two-corrections",
                          params=LONG).json()

@@ -5,9 +5,10 @@ import pytest
 from fastapi.testclient import TestClient
 
 from app.kinds import KIND_NAMES, KINDS, PRESETS
-from app.main import create_app
-from app.migrate import upgrade
-from app.settings import Settings
+from app.api.main import create_app
+from app.runtime.migrate import upgrade
+from app.runtime.settings import Settings
+from app.service.broker import longest_hard_time_limit_s, time_limit_s
 
 FIXED_PRESETS = {
     "betts-max-crossrange": "reentry",
@@ -100,14 +101,14 @@ def test_time_limits_come_from_each_kind_and_the_env_overrides_them(monkeypatch)
         if name.startswith("TRAJLAB_TIME_LIMIT_"):
             monkeypatch.delenv(name)
     s = Settings()
-    assert {k: s.time_limit_s(k) for k in KIND_NAMES} == {k: KINDS[k].time_limit_s for k in KIND_NAMES}
-    assert s.time_limit_s("robust_reentry") == 1800.0 and s.time_limit_s("midcourse") == 900.0
-    assert s.longest_hard_time_limit_s == 1800.0 + s.hard_time_limit_margin_s
+    assert {k: time_limit_s(s, k) for k in KIND_NAMES} == {k: KINDS[k].time_limit_s for k in KIND_NAMES}
+    assert time_limit_s(s, "robust_reentry") == 1800.0 and time_limit_s(s, "midcourse") == 900.0
+    assert longest_hard_time_limit_s(s) == 1800.0 + s.hard_time_limit_margin_s
     monkeypatch.setenv("TRAJLAB_TIME_LIMIT_MIDCOURSE_S", "5")
     monkeypatch.setenv("TRAJLAB_TIME_LIMIT_ROBUST_REENTRY_S", "4000")
     s = Settings()
-    assert s.time_limit_s("midcourse") == 5.0 and s.time_limit_s("intercept") == KINDS["intercept"].time_limit_s
-    assert s.longest_hard_time_limit_s == 4000.0 + s.hard_time_limit_margin_s
+    assert time_limit_s(s, "midcourse") == 5.0 and time_limit_s(s, "intercept") == KINDS["intercept"].time_limit_s
+    assert longest_hard_time_limit_s(s) == 4000.0 + s.hard_time_limit_margin_s
     monkeypatch.setenv("TRAJLAB_TIME_LIMIT_MIDCOURSE_S", "-1")
     with pytest.raises(ValueError):
         Settings()
@@ -133,7 +134,7 @@ def test_every_schema_has_a_unique_meaningful_title():
 def test_operation_ids_are_the_route_names_and_unique():
     from collections import Counter
 
-    from app.main import create_app
+    from app.api.main import create_app
 
     doc = create_app().openapi()
     ids = [op["operationId"] for path in doc["paths"].values() for op in path.values()

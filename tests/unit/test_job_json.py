@@ -1,4 +1,4 @@
-"""The job routes write the job document themselves (app.jobs.job_json): it must be the document FastAPI
+"""The job routes write the job document themselves (app.service.jobs.job_json): it must be the document FastAPI
 wrote through ``response_model=JobOut`` (pydantic's validation and JSON), field for field and character for
 character in every string, for every form a stored job takes (SQLite's naive times, PostgreSQL's aware ones in
 any session time zone, whole seconds, an error with and without details)."""
@@ -9,10 +9,10 @@ from datetime import datetime, timedelta, timezone
 
 import pytest
 
-from app import jobs
-from app.jobs import job_json, job_to_dict
-from app.models import Job
-from app.schemas import JobList, JobOut
+from app.service import jobs
+from app.service.jobs import job_json, job_to_dict
+from app.runtime.models import Job
+from app.api.schemas import JobList, JobOut
 
 BERLIN = timezone(timedelta(hours=1))
 

@@ -1,4 +1,4 @@
-"""The job life cycle rules of app.jobs on the embedded SQLite database."""
+"""The job life cycle rules of app.service.jobs on the embedded SQLite database."""
 from __future__ import annotations
 
 import threading
@@ -7,8 +7,8 @@ from datetime import timedelta
 import pytest
 from sqlalchemy import update
 
-from app import jobs
-from app.models import Job, utcnow
+from app.service import jobs
+from app.runtime.models import Job, utcnow
 
 
 def _new(db, **kw):

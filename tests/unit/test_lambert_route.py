@@ -6,8 +6,8 @@ import pytest
 from fastapi import FastAPI
 from fastapi.testclient import TestClient
 
-from app.routes.lambert import router
-from app.settings import get_settings
+from app.api.routes.lambert import router
+from app.runtime.settings import get_settings
 from solvers.astro.kepler import propagate
 
 MU = 398600.4418e9

@@ -168,7 +168,7 @@ def test_the_import_contracts_fail_on_a_planted_violation(tmp_path, planted, con
 
 def test_the_api_edge_loads_no_solver_engine():
     # Kinds import their solvers inside run(): the API process never pays for CasADi, heyoka or pymoo.
-    code = ("import sys, app.main, app.kinds, app.schemas; "
+    code = ("import sys, app.api.main, app.kinds, app.api.schemas; "
             "print(sorted(m for m in ('casadi', 'heyoka', 'pymoo') if m in sys.modules))")
     run = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr

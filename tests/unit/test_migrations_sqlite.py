@@ -4,8 +4,8 @@ from __future__ import annotations
 from alembic import command
 from sqlalchemy import inspect
 
-from app.db import make_engine
-from app.migrate import alembic_config, check, upgrade
+from app.runtime.db import make_engine
+from app.runtime.migrate import alembic_config, check, upgrade
 
 
 def test_upgrade_check_downgrade_roundtrip(tmp_path):

@@ -12,7 +12,7 @@ from app.kinds import KINDS, PRESETS
 from app.results import plots as plot_defs
 from app.results.report import render_report
 from app.results.tables import tables_for, to_csv
-from app.summary import key_numbers
+from app.service.summary import key_numbers
 from tests.preset_results import solve_preset
 
 FAST = [name for name, p in PRESETS.items() if p.kind != "robust_reentry"]
@@ -227,11 +227,11 @@ def test_the_midcourse_oem_reads_back_and_flies_the_front_points_corrections(tmp
 def test_the_midcourse_oem_route_picks_a_point_and_the_index_lists_it(tmp_path):
     from fastapi.testclient import TestClient
 
-    from app import jobs
-    from app.db import get_database
-    from app.main import create_app
-    from app.migrate import upgrade
-    from app.settings import Settings
+    from app.service import jobs
+    from app.runtime.db import get_database
+    from app.api.main import create_app
+    from app.runtime.migrate import upgrade
+    from app.runtime.settings import Settings
 
     url = f"sqlite:///{tmp_path / 'r.db'}"
     upgrade(url)

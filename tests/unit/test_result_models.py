@@ -17,7 +17,7 @@ from pydantic import BaseModel, ValidationError
 
 from app.kinds import KINDS, PRESETS
 from app.results.compact import compact
-from app.results.models import result_json, result_models
+from app.api.result_body import result_json, result_models
 from tests.preset_results import solve_preset
 
 INCLUDES = (set(), {"scan", "samples"})
@@ -96,7 +96,7 @@ def test_an_undeclared_field_and_a_nan_are_caught():
 
 
 def test_every_kind_declares_a_documented_model_in_the_openapi_document():
-    from app.main import create_app
+    from app.api.main import create_app
 
     assert set(result_models()) == set(KINDS)
     assert list(result_models())[:2] == ["robust_reentry", "reentry"]  # generated clients try them in order
@@ -134,11 +134,11 @@ def _models_in(annotation) -> list[type[BaseModel]]:
 def test_get_result_serves_the_stored_body_through_the_model(tmp_path):
     from fastapi.testclient import TestClient
 
-    from app import jobs
-    from app.db import get_database
-    from app.main import create_app
-    from app.migrate import upgrade
-    from app.settings import Settings
+    from app.service import jobs
+    from app.runtime.db import get_database
+    from app.api.main import create_app
+    from app.runtime.migrate import upgrade
+    from app.runtime.settings import Settings
 
     url = f"sqlite:///{tmp_path / 'r.db'}"
     upgrade(url)

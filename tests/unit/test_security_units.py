@@ -12,15 +12,16 @@ import pytest
 from fastapi.testclient import TestClient
 from sqlalchemy import select
 
-from app import auth, jobs, quota
-from app.broker import QUEUE_HEAVY, QUEUE_JOBS
+from app.api import auth
+from app.service import jobs, quota
+from app.service.broker import QUEUE_HEAVY, QUEUE_JOBS
 from app.kinds import KINDS, PRESETS
-from app.limits import count_lambert_problems, unsafe_text
-from app.main import create_app
-from app.migrate import upgrade
-from app.models import ApiKey, Job
-from app.params import resolve_params
-from app.settings import Settings
+from app.api.limits import count_lambert_problems, unsafe_text
+from app.api.main import create_app
+from app.runtime.migrate import upgrade
+from app.runtime.models import ApiKey, Job
+from app.api.params import resolve_params
+from app.runtime.settings import Settings
 
 
 def preset_params(name: str) -> dict:

@@ -1,4 +1,4 @@
-"""``trajlab api`` with several processes (app.serving): each process listens on a socket of its own."""
+"""``trajlab api`` with several processes (app.runtime.serving): each process listens on a socket of its own."""
 from __future__ import annotations
 
 import os
@@ -10,7 +10,7 @@ import time
 import urllib.request
 from pathlib import Path
 
-from app.serving import reuseport_socket
+from app.runtime.serving import reuseport_socket
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -23,7 +23,7 @@ def _listeners(port: int) -> int:
 
 
 def test_the_kernel_spreads_connections_over_reuseport_listeners():
-    # the premise of app.serving: two listeners on one port both receive connections
+    # the premise of app.runtime.serving: two listeners on one port both receive connections
     a = reuseport_socket("127.0.0.1", 0)
     port = a.getsockname()[1]
     b = reuseport_socket("127.0.0.1", port)
@@ -61,7 +61,7 @@ def test_trajlab_api_serves_each_process_on_its_own_socket_and_stops_on_sigterm(
         port = s.getsockname()[1]
     env = {**os.environ, "TRAJLAB_API_WORKERS": "2", "TRAJLAB_DATABASE_URL": f"sqlite:///{tmp_path / 'api.db'}",
            "TRAJLAB_DATA_DIR": str(tmp_path), "TRAJLAB_AUTH": "off", "PYTHONPATH": str(ROOT)}
-    proc = subprocess.Popen([sys.executable, "-m", "app.cli", "api", "--host", "127.0.0.1", "--port", str(port)],
+    proc = subprocess.Popen([sys.executable, "-m", "app.cli.commands", "api", "--host", "127.0.0.1", "--port", str(port)],
                             env=env, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                             start_new_session=True)
     try:

@@ -1,7 +1,7 @@
 """Settings: TRAJLAB_DATA_DIR moves the embedded SQLite file; an explicit URL wins."""
 from __future__ import annotations
 
-from app.settings import Settings
+from app.runtime.settings import Settings
 
 
 def test_data_dir_moves_the_sqlite_file(monkeypatch, tmp_path):

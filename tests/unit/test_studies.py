@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from app import jobs, studies
+from app.service import jobs, studies
 
 
 @pytest.fixture

@@ -6,11 +6,11 @@ from __future__ import annotations
 from fastapi.testclient import TestClient
 from sqlalchemy import func, select
 
-from app import auth
-from app.main import create_app
-from app.migrate import upgrade
-from app.models import Job
-from app.settings import Settings
+from app.api import auth
+from app.api.main import create_app
+from app.runtime.migrate import upgrade
+from app.runtime.models import Job
+from app.runtime.settings import Settings
 
 BODY = {"kind": "intercept", "preset": "long-range-intercept", "params": {"methods": ["impulsive"]}}
 

@@ -36,7 +36,7 @@ def _deg(rad: float) -> float:
 
 def _max_intervals() -> int:
     try:
-        from app.settings import get_settings
+        from app.runtime.settings import get_settings
     except ImportError:  # settings module not present: fall back to the documented default
         return 1000
     return int(get_settings().max_grid_intervals)

@@ -20,10 +20,10 @@ from fastapi import APIRouter, Depends, Header
 from fastapi.concurrency import run_in_threadpool
 from fastapi.sse import EventSourceResponse, ServerSentEvent
 
-from app import jobs
-from app.access import PrincipalDep, visible_job
-from app.deps import DatabaseDep, SettingsDep
-from app.models import FINAL_STATUSES, JOB_STATUSES, Job
+from app.service import jobs
+from app.api.access import PrincipalDep, visible_job
+from app.api.deps import DatabaseDep, SettingsDep
+from app.runtime.models import FINAL_STATUSES, JOB_STATUSES, Job
 
 router = APIRouter(prefix="/v1/jobs", tags=["jobs"])
 

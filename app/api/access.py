@@ -6,7 +6,7 @@ reports, files) takes a :data:`PrincipalDep` and loads the job with
 another owner is a 404, exactly like a job that does not exist.
 
 With ``TRAJLAB_AUTH=required`` the caller is the owner of the API key in
-``Authorization: Bearer KEY`` (:mod:`app.auth`); a missing, unknown or revoked
+``Authorization: Bearer KEY`` (:mod:`app.api.auth`); a missing, unknown or revoked
 key is a 401.  With ``off`` every caller is :data:`LOCAL`, who sees every job.
 FastAPI's ``HTTPBearer`` declares the scheme, so ``/docs`` has the Authorize button.
 """
@@ -20,9 +20,10 @@ from fastapi import Depends, HTTPException, Request
 from fastapi.concurrency import run_in_threadpool
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
-from app import auth, jobs
-from app.db import Database
-from app.models import Job
+from app.api import auth
+from app.service import jobs
+from app.runtime.db import Database
+from app.runtime.models import Job
 
 
 @dataclass(frozen=True)
@@ -77,7 +78,7 @@ async def principal_before_body(request: Request) -> Principal:
     return await _principal(request, await bearer_scheme(request))
 
 
-_JOB_ID = re.compile(r"[0-9a-f]{32}")  # app.models.new_id: uuid4().hex
+_JOB_ID = re.compile(r"[0-9a-f]{32}")  # app.runtime.models.new_id: uuid4().hex
 
 
 def not_found(job_id: str) -> HTTPException:

@@ -14,11 +14,11 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.routing import APIRoute
 from pydantic import Field, field_validator
 
-from app.access import bearer_scheme, principal_before_body
+from app.api.access import bearer_scheme, principal_before_body
 from app.kinds.base import StrictModel
-from app.limits import count_lambert_problems
-from app.schemas import ValidationErrorBody
-from app.settings import get_settings
+from app.api.limits import count_lambert_problems
+from app.api.schemas import ValidationErrorBody
+from app.runtime.settings import get_settings
 from solvers.astro.earth import AE_EARTH
 from solvers.astro.lambert import arc_min_radius, lambert
 
@@ -44,7 +44,7 @@ class _FiniteErrorsRoute(APIRoute):
 
         async def route_handler(request: Request):
             # The key, then the cap, are checked before the array is parsed (up to 25 MB at the
-            # default cap): the cap on the raw body (app.limits), which is kept on the request,
+            # default cap): the cap on the raw body (app.api.limits), which is kept on the request,
             # so FastAPI parses the same bytes without reading again.
             await principal_before_body(request)
             cap = _settings(request).lambert_max_problems

@@ -24,10 +24,10 @@ import re
 import threading
 import time
 
-from app import jobs, studies
-from app.broker import QUEUES, create_publisher, publish_job, redis_client
-from app.db import Database, get_database
-from app.settings import Settings
+from app.service import jobs, studies
+from app.service.broker import QUEUES, create_publisher, publish_job, redis_client
+from app.runtime.db import Database, get_database
+from app.runtime.settings import Settings
 
 log = logging.getLogger("trajlab.recovery")
 _JOB_ID = re.compile(rb"[0-9a-f]{32}")

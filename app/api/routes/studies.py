@@ -1,4 +1,4 @@
-"""/v1/studies: trade studies over any job kind (app/studies.py has the logic)."""
+"""/v1/studies: trade studies over any job kind (app/service/studies.py has the logic)."""
 from __future__ import annotations
 
 import csv
@@ -11,13 +11,13 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import PlainTextResponse
 from pydantic import BaseModel, Field, model_validator
 
-from app import quota, studies
-from app.access import Principal, PrincipalDep
-from app.recovery import publish_or_defer
-from app.deps import CeleryDep, DatabaseDep, SettingsDep
+from app.service import quota, studies
+from app.api.access import Principal, PrincipalDep
+from app.service.recovery import publish_or_defer
+from app.api.deps import CeleryDep, DatabaseDep, SettingsDep
 from app.kinds import KINDS, PRESETS
-from app.params import deep_merge, resolve_params
-from app.study_presets import STUDY_PRESETS
+from app.api.params import deep_merge, resolve_params
+from app.service.study_presets import STUDY_PRESETS
 
 router = APIRouter(prefix="/v1/studies", tags=["studies"])
 

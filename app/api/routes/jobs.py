@@ -9,25 +9,25 @@ from typing import Annotated, Literal
 from fastapi import APIRouter, Body, Header, HTTPException, Query, Request, Response
 from fastapi.responses import JSONResponse
 
-from app import jobs, quota
-from app.access import PrincipalDep, not_found, visible_job
-from app.deps import DatabaseDep
+from app.service import jobs, quota
+from app.api.access import PrincipalDep, not_found, visible_job
+from app.api.deps import DatabaseDep
 from app.kinds import KINDS, PRESETS
-from app.params import resolve_params
+from app.api.params import resolve_params
 from app.results.compact import compact
-from app.results.models import JobResult, result_json
-from app.schemas import ErrorBody, JobList, JobOut, JobStatus, JobSubmission, NotSucceededBody, ValidationErrorBody
-from app.broker import publish_job
+from app.api.result_body import JobResult, result_json
+from app.api.schemas import (ErrorBody, JobList, JobOut, JobStatus, JobSubmission, NotSucceededBody, ValidationErrorBody)
+from app.service.broker import publish_job
 
 router = APIRouter(prefix="/v1/jobs", tags=["jobs"])
 log = logging.getLogger("trajlab.api")
 # The hot routes (submit, list, get) read the database, settings and broker from request.app.state
-# instead of app.deps' dependencies: FastAPI solves every dependency on every request, about 5% of a
+# instead of app.api.deps' dependencies: FastAPI solves every dependency on every request, about 5% of a
 # GET's CPU each (measured with py-spy); the principal stays a dependency (OpenAPI's security scheme).
 
 
 def _job_response(body: bytes, *, status_code: int = 200, headers: dict | None = None) -> Response:
-    """A job document already serialized (app.jobs.job_json): ``response_model`` stays for the OpenAPI
+    """A job document already serialized (app.service.jobs.job_json): ``response_model`` stays for the OpenAPI
     document, and FastAPI neither validates nor serializes the returned dict again (for a ``def`` route
     that is one more thread-pool hop per request)."""
     return Response(body, status_code=status_code, headers=headers, media_type="application/json")
@@ -129,7 +129,7 @@ def get_result(job_id: str, db: DatabaseDep, principal: PrincipalDep,
     headers = {"ETag": etag, "Cache-Control": "private, max-age=86400"}
     if if_none_match and etag in [t.strip() for t in if_none_match.split(",")]:
         return Response(status_code=304, headers=headers)
-    # validated by the kind's model and written by pydantic-core (app.results.models.result_json)
+    # validated by the kind's model and written by pydantic-core (app.api.result_body.result_json)
     return Response(result_json(job.kind, compact(job.kind, result, set(include))), media_type="application/json",
                     headers=headers)
 

@@ -4,7 +4,7 @@ The pages are shells rendered with what is public (kinds, presets); the job
 data is fetched by a little plain JavaScript (``app/web/static/console.js``)
 from the same ``/v1`` routes any client uses, with the API key the console
 asks for once (kept in the browser's localStorage).  So the console shows
-exactly what that key may see, and nothing here bypasses ``app/access.py``.
+exactly what that key may see, and nothing here bypasses ``app/api/access.py``.
 Nothing is loaded from the internet.
 """
 from __future__ import annotations
@@ -18,13 +18,13 @@ from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import HTMLResponse, Response
 from fastapi.templating import Jinja2Templates
 
-from app import jobs
-from app.access import PrincipalDep, visible_job
-from app.deps import DatabaseDep
+from app.service import jobs
+from app.api.access import PrincipalDep, visible_job
+from app.api.deps import DatabaseDep
 from app.kinds import KINDS, PRESETS
-from app.summary import WARM_START_FIELD
+from app.service.summary import WARM_START_FIELD
 
-WEB = Path(__file__).resolve().parent.parent / "web"
+WEB = Path(__file__).resolve().parents[2] / "web"
 templates = Jinja2Templates(directory=str(WEB / "templates"))
 router = APIRouter(include_in_schema=False)
 
@@ -127,7 +127,7 @@ def render_compare(loaded) -> bytes:
 @router.get("/console/jobs/{job_id}/numbers")
 def job_numbers(job_id: str, db: DatabaseDep, principal: PrincipalDep) -> dict:
     """The key numbers the job page shows (the same as the CLI's): empty until the job succeeded."""
-    from app.summary import key_numbers
+    from app.service.summary import key_numbers
 
     job = visible_job(db, job_id, principal)
     return key_numbers(job.kind, jobs.get_result(db, job_id)) if job.status == "succeeded" else {}

@@ -9,8 +9,8 @@ from typing import Annotated
 from celery import Celery
 from fastapi import Depends, Request
 
-from app.db import Database
-from app.settings import Settings
+from app.runtime.db import Database
+from app.runtime.settings import Settings
 
 
 async def _settings(request: Request) -> Settings:

@@ -19,8 +19,8 @@ from datetime import datetime, timedelta, timezone
 
 from sqlalchemy import select
 
-from app.db import Database
-from app.models import ApiKey, utcnow
+from app.runtime.db import Database
+from app.runtime.models import ApiKey, utcnow
 
 KEY_PREFIX = "tl_"
 SHOWN_PREFIX_CHARS = 8  # "tl_" + 5 random characters: enough to tell keys apart in a listing

@@ -11,7 +11,7 @@ from fastapi import APIRouter
 from fastapi.responses import JSONResponse
 from sqlalchemy import text
 
-from app.deps import CeleryDep, DatabaseDep
+from app.api.deps import CeleryDep, DatabaseDep
 
 router = APIRouter(tags=["health"])
 log = logging.getLogger("trajlab.health")

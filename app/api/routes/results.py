@@ -15,17 +15,17 @@ from fastapi import APIRouter, Header, HTTPException, Query
 from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import HTMLResponse, PlainTextResponse, Response
 
-from app import jobs
-from app.access import PrincipalDep, visible_job
-from app.deps import DatabaseDep
+from app.service import jobs
+from app.api.access import PrincipalDep, visible_job
+from app.api.deps import DatabaseDep
 from app.results import plots as plot_defs
 from app.kinds.midcourse.oem import default_point, midcourse_to_oem
 from app.kinds.intercept.oem import to_oem
 from app.results.oem import has_oem
-from app.schemas import ErrorBody
+from app.api.schemas import ErrorBody
 from app.results.report import render_report
 from app.results.tables import tables_for, to_csv
-from app.summary import key_numbers
+from app.service.summary import key_numbers
 
 router = APIRouter(prefix="/v1/jobs", tags=["results"])
 CACHE_CONTROL = "private, max-age=86400"

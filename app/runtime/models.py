@@ -63,11 +63,11 @@ class Job(Base):
     # while it could not be (broker down at submission): the re-publisher sends
     # every queued job that is unpublished or published long ago and unclaimed.
     published_at: Mapped[datetime | None] = mapped_column(DateTime(timezone=True))
-    # The broker queue its messages go to (app.broker.QUEUES), chosen at submission.
+    # The broker queue its messages go to (app.service.broker.QUEUES), chosen at submission.
     queue: Mapped[str] = mapped_column(String(32), default="trajlab.jobs", server_default="trajlab.jobs")
     # The owner (API key owner) the job belongs to; None when auth is off.
     owner: Mapped[str | None] = mapped_column(String(100))
-    # A point of a trade study (app/studies.py): the study and the point's index in it.
+    # A point of a trade study (app/service/studies.py): the study and the point's index in it.
     study_id: Mapped[str | None] = mapped_column(ForeignKey("studies.id", ondelete="SET NULL"))
     study_index: Mapped[int | None] = mapped_column(Integer)
 
@@ -88,7 +88,7 @@ class JobResult(Base):
 
 
 class ApiKey(Base):
-    """An API key: only the SHA-256 of the key is stored (app.auth); the key itself is shown once."""
+    """An API key: only the SHA-256 of the key is stored (app.api.auth); the key itself is shown once."""
 
     __tablename__ = "api_keys"
 
@@ -106,7 +106,7 @@ class ApiKey(Base):
 
 
 class Study(Base):
-    """A trade study: a base job swept over one or two parameters (app/studies.py)."""
+    """A trade study: a base job swept over one or two parameters (app/service/studies.py)."""
 
     __tablename__ = "studies"
 

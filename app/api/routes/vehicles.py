@@ -5,7 +5,7 @@ from __future__ import annotations
 from fastapi import APIRouter, HTTPException
 
 from app.kinds.reentry.vehicle import VehicleOut, vehicle_out
-from app.schemas import ErrorBody
+from app.api.schemas import ErrorBody
 from solvers.models.vehicles import VEHICLES
 
 router = APIRouter(prefix="/v1/vehicles", tags=["vehicles"])

@@ -1,6 +1,6 @@
 """A small Python client for any trajlab URL (httpx): what the CLI and the tests use, and a notebook can.
 
-    from app.client import Client
+    from app.cli.client import Client
     c = Client("http://127.0.0.1:8000")          # or TRAJLAB_URL / TRAJLAB_API_KEY from the environment
     job = c.submit("reentry", preset="betts-max-crossrange", params={"grid": {"intervals": 50}})
     done = c.wait(job["id"])                      # follows the job's Server-Sent Events

@@ -42,7 +42,7 @@ def _print_job(job: dict) -> None:
 
 
 def _print_numbers(client, job: dict) -> None:
-    from app.summary import key_numbers
+    from app.service.summary import key_numbers
 
     if job["status"] == "succeeded":
         numbers = key_numbers(job["kind"], client.result(job["id"]))
@@ -88,7 +88,7 @@ def _force_bar() -> bool:
 
 
 def _client(args):
-    from app.client import Client
+    from app.cli.client import Client
 
     return Client(args.url)
 
@@ -97,7 +97,7 @@ def cmd_submit(args) -> int:
     params: dict = {}
     if args.params:
         params = json.loads(Path(args.params).read_text())
-    from app.params import deep_merge
+    from app.api.params import deep_merge
 
     params = deep_merge(params, parse_set(args.set or []))
     client = _client(args)
@@ -195,7 +195,7 @@ def add_commands(sub) -> None:
 
 def run(args) -> int:
     """Run a client command; API errors become their one-line message and an exit code, never a traceback."""
-    from app.client import TrajlabError
+    from app.cli.client import TrajlabError
 
     try:
         return args.fn(args)

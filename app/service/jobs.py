@@ -21,9 +21,9 @@ from typing import Callable
 from sqlalchemy import Connection, Row, Text, bindparam, cast, func, insert, or_, select, update
 from sqlalchemy.orm import Session
 
-from app.broker import QUEUE_JOBS
-from app.db import Database
-from app.models import FINAL_STATUSES, Job, JobResult, new_id, utcnow
+from app.service.broker import QUEUE_JOBS
+from app.runtime.db import Database
+from app.runtime.models import FINAL_STATUSES, Job, JobResult, new_id, utcnow
 
 JOBS = Job.__table__
 # A job's columns as a read-only row: the same attribute names as a Job (job.status, job.owner, ...), read by
@@ -119,7 +119,7 @@ def create_job(db: Database, *, kind: str, params: dict, label: str | None, pres
     now = utcnow()
     # Marked as handed to the broker in the same INSERT (no second write per submission): if the
     # publish then fails, mark_unpublished clears it; if the process dies in between, the
-    # re-publisher finds the job missing from the broker and sends it (app/recovery.py).
+    # re-publisher finds the job missing from the broker and sends it (app/service/recovery.py).
     values = dict(id=new_id(), kind=kind, params=params, label=label, preset=preset, status="queued",
                   progress=0.0, message="queued", attempts=1, cancel_requested=False,
                   idempotency_key=idempotency_key, request_hash=request_hash, created_at=now,

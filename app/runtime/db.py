@@ -36,7 +36,7 @@ from sqlalchemy.exc import DisconnectionError
 from sqlalchemy.orm import Session, sessionmaker
 
 SQLITE_BUSY_TIMEOUT_MS = 30_000
-# Connections kept, one per API thread (app.main); MAX_OVERFLOW more for other threads/bursts.  8 per process:
+# Connections kept, one per API thread (app.api.main); MAX_OVERFLOW more for other threads/bursts.  8 per process:
 # with 2 API processes (the default), 16 threads each queued behind one another for the GIL and POST at
 # 100 connections had a p99 of 675 ms; 8 each (16 in all, as one process had) 315 ms, at 1.5x the
 # throughput (benchmarks/api_load.py, same machine, minutes apart).
@@ -135,7 +135,7 @@ class Database:
     def autocommit(self) -> Iterator[Connection]:
         """A Core connection for a write of one statement, which is atomic by itself: on PostgreSQL no
         BEGIN/COMMIT round trips; on SQLite the same serialized ``BEGIN IMMEDIATE`` transaction as
-        :meth:`write_connection` (pysqlite's own transaction control is off, app.db.make_engine)."""
+        :meth:`write_connection` (pysqlite's own transaction control is off, app.runtime.db.make_engine)."""
         if self.is_sqlite:
             with self.write_connection() as conn:
                 yield conn

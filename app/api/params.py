@@ -1,0 +1,40 @@
+"""Resolving a submission's parameters: preset, then the user's overrides, then validation."""
+from __future__ import annotations
+
+import copy
+
+from fastapi.exceptions import RequestValidationError
+from pydantic import ValidationError
+
+from app.kinds.base import KindSpec
+
+
+def deep_merge(base: dict, override: dict) -> dict:
+    """``override`` wins; nested dicts merge key by key; lists are replaced whole."""
+    out = copy.deepcopy(base)
+    for key, value in override.items():
+        if isinstance(value, dict) and isinstance(out.get(key), dict):
+            out[key] = deep_merge(out[key], value)
+        else:
+            out[key] = copy.deepcopy(value)
+    return out
+
+
+def resolve_params(spec: KindSpec, preset_params: dict | None, overrides: dict | None) -> dict:
+    """The fully resolved parameter set (defaults filled in), as stored on the job.
+
+    Raises ``RequestValidationError`` (a 422 naming ``body.params.<field>``) when
+    the merged set breaks a rule that only shows once preset and overrides meet.
+    """
+    merged = deep_merge(preset_params or {}, overrides or {})
+    try:
+        model = spec.params_model.model_validate(merged)
+    except ValidationError as exc:
+        errors = []
+        for err in exc.errors(include_url=False):
+            err = dict(err)
+            err["loc"] = ("body", "params", *err.get("loc", ()))
+            err.pop("ctx", None)
+            errors.append(err)
+        raise RequestValidationError(errors) from None
+    return model.model_dump(mode="json")

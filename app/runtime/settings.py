@@ -1,0 +1,124 @@
+"""Service settings, read from ``TRAJLAB_*`` environment variables (pydantic-settings).
+
+The defaults are the embedded single-machine shape (SQLite file under ``var/``,
+a broker URL filled in by ``trajlab serve`` from its embedded Redis); production
+sets ``TRAJLAB_DATABASE_URL`` and ``TRAJLAB_BROKER_URL`` to PostgreSQL and Redis.
+"""
+from __future__ import annotations
+
+import math
+import os
+import re
+from functools import lru_cache
+from pathlib import Path
+from typing import Literal
+
+from pydantic import Field, model_validator
+from dotenv import dotenv_values
+from pydantic_settings import BaseSettings, SettingsConfigDict
+
+DEFAULT_DATA_DIR = Path("var")
+_TIME_LIMIT_VAR = re.compile(r"TRAJLAB_TIME_LIMIT_([A-Z0-9_]+)_S")
+
+
+class Settings(BaseSettings):
+    model_config = SettingsConfigDict(env_prefix="TRAJLAB_", env_file=".env", extra="ignore")
+
+    database_url: str = Field(
+        default="",
+        description="SQLAlchemy URL: sqlite:///path (embedded) or postgresql+psycopg://user@host/db; "
+                    "unset: trajlab.db in data_dir",
+    )
+    broker_url: str = Field(
+        default="redis://127.0.0.1:6379/0",
+        description="Celery broker: redis://host:port/db or redis+socket:///path/redis.socket",
+    )
+    data_dir: Path = Field(default=DEFAULT_DATA_DIR, description="Embedded mode: SQLite file, Redis socket, logs")
+    worker_concurrency: int = Field(default=1, ge=1, description="Solver processes per worker")
+    # One process serves at most one core (the GIL): on PostgreSQL a single process spent its core on
+    # Python while PostgreSQL and the clients had the other (benchmarks/api_load.py, 2 cores).  Two, not
+    # one per core: each keeps a pool of up to 16 connections (app.runtime.db) of PostgreSQL's 100 by default.
+    api_workers: int = Field(default=2, ge=1, description="`trajlab api` processes (uvicorn workers) on one port")
+    access_log: bool = Field(default=False, description="`trajlab api` writes one log line per request (uvicorn's "
+                                                         "access log; it costs about a tenth of a request's CPU)")
+
+    # Per-kind Celery time limits (s). The soft limit raises inside the task so the
+    # job fails with code time_limit and a message; the hard limit kills the child.
+    # Each kind declares its own (KindSpec.time_limit_s); TRAJLAB_TIME_LIMIT_<KIND>_S
+    # overrides it, collected into time_limits_s below (app.service.broker.time_limit_s merges the two:
+    # the runtime never imports the kinds).
+    time_limits_s: dict[str, float] = Field(
+        default_factory=dict, description="Soft time limit overrides by kind; set as TRAJLAB_TIME_LIMIT_<KIND>_S")
+    hard_time_limit_margin_s: float = 60.0
+
+    # Worker liveness: a running job writes heartbeat_at every heartbeat_interval_s;
+    # the reaper re-queues a running job whose heartbeat is older than stale_after_s.
+    heartbeat_interval_s: float = 2.0
+    stale_after_s: float = 60.0
+    reaper_interval_s: float = Field(default=15.0, description="Period of the recovery loop (reaper, re-publisher)")
+    republish_after_s: float = Field(
+        default=30.0, description="A queued job published longer ago than this and missing from the broker is re-sent")
+    db_retry_max_s: float = Field(
+        default=30.0, description="Longest backoff of a worker retrying a delivery while the database is down")
+    max_attempts: int = Field(default=3, ge=1, description="Deliveries of one job before it fails with worker_lost")
+
+    # Caps that keep one request from exhausting the machine.
+    max_grid_intervals: int = Field(default=1000, description="reentry/robust_reentry grid.intervals cap")
+    lambert_max_problems: int = Field(default=100_000, description="POST /v1/lambert problems per request")
+    monte_carlo_max_samples: int = Field(default=1_000_000)
+    monte_carlo_chunk_samples: int = Field(
+        default=50_000, description="Above this many samples a Monte Carlo is split across workers"
+    )
+    # The ocp kind's limits (shared/specs/ocp.md): a problem past one is a 422 naming the setting.
+    ocp_max_expression_chars: int = Field(default=2000, ge=1, description="ocp: characters per expression")
+    ocp_max_expression_nodes: int = Field(default=400, ge=1, description="ocp: parse-tree nodes per expression")
+    ocp_max_states: int = Field(default=50, ge=1, description="ocp: states per problem")
+    ocp_max_controls: int = Field(default=20, ge=0, description="ocp: controls per problem")
+    ocp_max_parameters: int = Field(default=20, ge=0, description="ocp: static parameters per problem")
+    ocp_max_expressions: int = Field(default=200, ge=0, description="ocp: named expressions per problem")
+    ocp_max_tables: int = Field(default=50, ge=0, description="ocp: tables per problem")
+    ocp_max_table_values: int = Field(default=100_000, ge=1, description="ocp: values per table")
+    ocp_max_intervals: int = Field(default=1000, ge=1, description="ocp: transcription.intervals")
+    ocp_max_constraints: int = Field(default=200, ge=0, description="ocp: path (and boundary) constraints")
+
+    # Security (README "Security"). Required unless switched off: `trajlab serve` on a
+    # loopback address switches it off (one local user) and says so at start.
+    auth: Literal["required", "off"] = Field(
+        default="required", description="required: every /v1 request needs `Authorization: Bearer KEY`; "
+                                         "off: no keys, every caller sees every job (local use only)")
+    max_body_bytes: int = Field(default=1_048_576, ge=0, description="Request body cap (413 before parsing)")
+    max_queued_per_owner: int = Field(default=10, ge=1, description="Queued jobs one owner may have (429 past it)")
+    max_active_per_owner: int = Field(default=20, ge=1, description="Queued + running jobs of one owner (429)")
+    max_active_cost_per_owner: float = Field(
+        default=100_000.0, gt=0, description="Budget of estimated cost (app.service.quota) over an owner's queued + "
+                                             "running jobs; one job alone may exceed it")
+    heavy_cost: float = Field(default=5_000.0, gt=0, description="Jobs estimated above this go to the heavy queue")
+    quota_retry_after_s: int = Field(default=30, ge=1, description="Retry-After of a 429")
+
+    @model_validator(mode="after")
+    def _embedded_database_in_data_dir(self) -> "Settings":
+        # TRAJLAB_DATA_DIR moves everything the embedded mode writes, the SQLite file included.
+        if not self.database_url:
+            self.database_url = f"sqlite:///{Path(self.data_dir) / 'trajlab.db'}"
+        return self
+
+    @model_validator(mode="after")
+    def _time_limit_overrides(self) -> "Settings":
+        # Per-kind variables are not fields (a kind must not need a line here), so they
+        # are read by pattern: the environment wins over the .env file, as for fields.
+        found = {**dotenv_values(".env"), **os.environ} if Path(".env").is_file() else dict(os.environ)
+        for name, value in found.items():
+            m = _TIME_LIMIT_VAR.fullmatch(name.upper())
+            if m and value is not None:
+                kind = m.group(1).lower()
+                limit = float(value)
+                if not (limit > 0 and math.isfinite(limit)):
+                    raise ValueError(f"{name} must be a positive number of seconds")
+                self.time_limits_s.setdefault(kind, limit)
+        return self
+
+
+
+@lru_cache
+def get_settings() -> Settings:
+    return Settings()
