@@ -12,17 +12,17 @@ import pytest
 from fastapi.testclient import TestClient
 from hypothesis import HealthCheck, given, settings as hsettings, strategies as st
 
-from app import quota
-from app.broker import QUEUE_HEAVY, QUEUE_JOBS
+from app.service import quota
+from app.service.broker import QUEUE_HEAVY, QUEUE_JOBS
 from app.kinds import KINDS, PRESETS
 from app.kinds.ocp import SPEC, OcpParams, run
 from app.kinds.ocp.kind import cost, key_numbers
 from app.kinds.ocp.plots import plots
-from app.main import create_app
-from app.migrate import upgrade
-from app.params import resolve_params
-from app.settings import Settings, get_settings
-from app.studies import expand
+from app.api.main import create_app
+from app.runtime.migrate import upgrade
+from app.api.params import resolve_params
+from app.runtime.settings import Settings, get_settings
+from app.service.studies import expand
 from tests.support import RecordingContext
 
 CANARY = Path("/tmp/trajlab-ocp-canary")

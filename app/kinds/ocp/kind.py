@@ -88,7 +88,7 @@ def key_numbers(result: dict) -> dict:
     return out
 
 
-# One work unit is about one RK4 step of one reentry shooting interval (app.quota: the Betts reentry at 100
+# One work unit is about one RK4 step of one reentry shooting interval (app.service.quota: the Betts reentry at 100
 # intervals x 2 substeps costs 200).  That problem written as an ocp (the betts-shuttle-ocp preset: 6 states,
 # 2 controls, ~400 characters of expressions) costs the same: the NLP grows with the integration steps and
 # the states and controls, each step's cost with the size of the expressions.
