@@ -10,18 +10,20 @@ from pathlib import Path
 
 import pytest
 from fastapi.testclient import TestClient
-from hypothesis import HealthCheck, given, settings as hsettings, strategies as st
+from hypothesis import HealthCheck, given
+from hypothesis import settings as hsettings
+from hypothesis import strategies as st
 
-from app.service import quota
-from app.service.broker import QUEUE_HEAVY, QUEUE_JOBS
+from app.api.main import create_app
+from app.api.params import resolve_params
 from app.kinds import KINDS, PRESETS
 from app.kinds.ocp import SPEC, OcpParams, run
 from app.kinds.ocp.kind import cost, key_numbers
 from app.kinds.ocp.plots import plots
-from app.api.main import create_app
 from app.runtime.migrate import upgrade
-from app.api.params import resolve_params
 from app.runtime.settings import Settings, get_settings
+from app.service import quota
+from app.service.broker import QUEUE_HEAVY, QUEUE_JOBS
 from app.service.studies import expand
 from tests.support import RecordingContext
 

@@ -5,4 +5,4 @@ from app.kinds.ocp.kind import PRESETS, SPEC, run
 from app.kinds.ocp.params import OcpParams
 from app.kinds.ocp.result import OcpResult
 
-__all__ = ["OcpParams", "OcpResult", "PRESETS", "SPEC", "run"]
+__all__ = ["PRESETS", "SPEC", "OcpParams", "OcpResult", "run"]

@@ -10,7 +10,14 @@ from __future__ import annotations
 
 import time
 
-from app.kinds.base import (JobContext, JobFailure, KindSpec, Preset, RunOutcome, outcome_from_status)
+from app.kinds.base import (
+    JobContext,
+    JobFailure,
+    KindSpec,
+    Preset,
+    RunOutcome,
+    outcome_from_status,
+)
 from app.kinds.ocp.params import OcpParams
 from app.kinds.ocp.plots import plots
 from app.kinds.ocp.result import OcpResult, build_result
@@ -88,8 +95,8 @@ def key_numbers(result: dict) -> dict:
     return out
 
 
-# One work unit is about one RK4 step of one reentry shooting interval (app.service.quota: the Betts reentry at 100
-# intervals x 2 substeps costs 200).  That problem written as an ocp (the betts-shuttle-ocp preset: 6 states,
+# One work unit is about one RK4 step of one reentry shooting interval (app.service.quota: the Betts
+# reentry at 100 intervals x 2 substeps costs 200).  That problem written as an ocp (the betts-shuttle-ocp preset: 6 states,
 # 2 controls, ~400 characters of expressions) costs the same: the NLP grows with the integration steps and
 # the states and controls, each step's cost with the size of the expressions.
 REFERENCE_WIDTH = 8          # states + controls of the reference problem

@@ -196,7 +196,7 @@ class OcpParams(StrictModel):
     _problem: Any = PrivateAttr(None)
 
     @classmethod
-    def model_validate(cls, obj: Any, **kwargs) -> "OcpParams":
+    def model_validate(cls, obj: Any, **kwargs) -> OcpParams:
         """Field shapes, then the whole problem (:func:`check_problem`): see the module docstring."""
         model = super().model_validate(obj, **kwargs)
         model._problem = check_problem(model)
@@ -254,9 +254,7 @@ def _loc(path: str) -> tuple:
 
 def _get(data: Any, loc: tuple) -> Any:
     for part in loc:
-        if isinstance(data, dict) and part in data:
-            data = data[part]
-        elif isinstance(data, list) and isinstance(part, int) and part < len(data):
+        if isinstance(data, dict) and part in data or isinstance(data, list) and isinstance(part, int) and part < len(data):
             data = data[part]
         else:
             return None
