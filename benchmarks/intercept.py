@@ -7,7 +7,7 @@ warm start (the impulsive Lambert optimum, scanned at 5 s), three methods:
 1. the paper's formulation: one 60-node LGL segment with a free throttle (differential form);
 2. trajlab's default: coast/burn arcs with free switch times on integral-form LGL, burns added
    where the switching function asks for them, segments refined until the re-propagated miss
-   is below 100 m (:mod:`solvers.intercept_thrust`);
+   is below 100 m (:mod:`solvers.intercept.thrust`);
 3. the baseline: direct multiple shooting on 200 equal intervals with piecewise-constant
    throttle and direction, RK4 inside each interval (:mod:`solvers.transcription.multiple_shooting`).
 
@@ -35,17 +35,8 @@ import casadi as ca
 import numpy as np
 
 from solvers.intercept import InterceptProblem, ScanSettings, solve_impulsive
-from solvers.intercept_cases import PAPER_003, REFERENCE_FUEL_KG
-from solvers.intercept_thrust import (
-    FiniteThrustProblem,
-    ImpulsiveGuess,
-    MeshOptions,
-    nondimensionalise,
-    plan_impulsive,
-    propagate_hill,
-    solve_finite_thrust,
-    verify_controls,
-)
+from solvers.intercept.cases import PAPER_003, REFERENCE_FUEL_KG
+from solvers.intercept.thrust import (FiniteThrustProblem, ImpulsiveGuess, MeshOptions, nondimensionalise, plan_impulsive, propagate_hill, solve_finite_thrust, verify_controls)
 from solvers.models import relative_motion as rm
 from solvers.transcription import nlp
 from solvers.transcription.lgl import Mesh

@@ -243,7 +243,7 @@ def porkchop(ref_rate: float | None = None) -> dict:
     from dataclasses import replace
 
     from solvers.intercept import InterceptProblem, PorkchopSettings, solve_impulsive
-    from solvers.intercept_cases import PAPER_003
+    from solvers.intercept.cases import PAPER_003
 
     base = InterceptProblem(scenario=PAPER_003)
     solve_impulsive(base)  # warm

@@ -5,7 +5,7 @@ multi-segment mesh, and the collocation constraints in two forms.
 Sources: Fahroo & Ross, "Costate estimation by a Legendre pseudospectral
 method", JGCD 24(2), 2001 (nodes, weights, D-matrix eq. 8-10, covector
 mapping lambda_i = nu_i / w_i).  Refinement (which segments to split) belongs
-to the solver using the mesh: see ``solvers.intercept_thrust``.
+to the solver using the mesh: see ``solvers.intercept.thrust``.
 
 On one segment the state is the degree ``n-1`` polynomial through its values at
 ``n`` LGL nodes ``tau in [-1, 1]``; the collocation constraint is

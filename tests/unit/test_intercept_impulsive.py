@@ -13,7 +13,7 @@ from solvers.common import Outcome
 from dataclasses import replace
 
 from solvers.intercept import InterceptProblem, PorkchopSettings, ScanSettings, solve, solve_impulsive
-from solvers.intercept_cases import IMPULSIVE_DELTA_V_MPS, IMPULSIVE_T_MAN_S, PAPER_003
+from solvers.intercept.cases import IMPULSIVE_DELTA_V_MPS, IMPULSIVE_T_MAN_S, PAPER_003
 
 D = math.radians
 PAPER = InterceptProblem(PAPER_003)
@@ -264,7 +264,7 @@ def test_paper_notes_only_on_the_paper_scenario():
     # The paper's figures (1501.73 m/s, 271.42 kg) are quoted only beside an answer to its own case
     # (issue 15, item 4); a changed geometry gets the model's own notes only.
     from app.kinds.intercept import FINITE_NOTE, PAPER_NOTE
-    from solvers.intercept_cases import is_paper_003
+    from solvers.intercept.cases import is_paper_003
 
     paper = run(InterceptParams.model_validate({"methods": ["impulsive"], "scan": {"step_s": 20.0}}), Ctx())
     assert PAPER_NOTE in paper.result["notes"]

@@ -8,10 +8,8 @@ from dataclasses import replace
 from solvers.astro.kepler import propagate
 from solvers.common import Outcome, SolveStatus
 from solvers.intercept import InterceptProblem, ScanSettings, solve_impulsive
-from solvers.intercept_cases import CONVERGED_FUEL_KG, PAPER_003, REFERENCE_FUEL_KG
-from solvers.intercept_thrust import (
-    FiniteThrustProblem, ImpulsiveGuess, MeshOptions, TrajectoryGuess, solve_finite_thrust,
-)
+from solvers.intercept.cases import CONVERGED_FUEL_KG, PAPER_003, REFERENCE_FUEL_KG
+from solvers.intercept.thrust import (FiniteThrustProblem, ImpulsiveGuess, MeshOptions, TrajectoryGuess, solve_finite_thrust)
 from solvers.models import relative_motion as rm
 
 MU = PAPER_003.mu_m3_s2
@@ -222,7 +220,7 @@ def test_preset_answer_has_no_zero_length_arcs():
 
 
 def test_without_short_arcs_merges_and_keeps_the_total():
-    from solvers.intercept_thrust.layout import Arc, Layout, without_short_arcs
+    from solvers.intercept.thrust.layout import Arc, Layout, without_short_arcs
 
     lay = Layout((Arc("coast", 1), Arc("burn", 1), Arc("coast", 3), Arc("burn", 2), Arc("coast", 2)),
                  (1e-12, 0.1, 0.3, 1e-13, 0.6 - 2e-12), 10, True)
@@ -263,7 +261,7 @@ def test_fixed_tf_6000_is_infeasible_not_unconverged():
 ])
 def test_a_failed_finite_thrust_solve_is_classified_by_the_impulsive_bound(ipopt_status, outcome, expected):
     from solvers.intercept import by_impulsive_bound
-    from solvers.intercept_thrust import FiniteThrustSolution
+    from solvers.intercept.thrust import FiniteThrustSolution
 
     imp = solve_impulsive(InterceptProblem(replace(PAPER_003, tf_s=6000.0)))
     assert imp.status.solver_status == "insufficient_propellant"

@@ -1,5 +1,6 @@
-"""The layering rules a machine can check (issue 12): no module reaches into another's
-``_private`` names, and the import-linter contracts in ``pyproject.toml`` hold.
+"""The layering rules a machine can check (issues 12 and 23): no module reaches into another's
+``_private`` names, the import-linter contracts in ``pyproject.toml`` hold, no import cycle runs
+through ``app/``, ``solvers/`` or ``worker/``, and no module there grows past 400 lines.
 
 Both checkers are also run on planted violations, so a check that silently passes
 everything cannot hide here.
@@ -13,6 +14,7 @@ import sys
 import textwrap
 from pathlib import Path
 
+import grimp
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -21,6 +23,11 @@ PACKAGES = ("app", "worker", "solvers", "benchmarks")
 # (importing module, imported module) pairs still reaching into privates while the work
 # that removes them is under way. Empty it, never add to it: a new pair is a bug.
 ALLOWED_PRIVATE_REACH_INS: set[tuple[str, str]] = set()
+
+MAX_MODULE_LINES = 400
+# Modules over MAX_MODULE_LINES while the split that shortens them is under way (the ocp kind's
+# parser, issue 24). Empty it, never add to it.
+ALLOWED_LONG_MODULES = {"solvers/ocp/spec.py"}
 
 
 def _module_name(path: Path, root: Path) -> str:
@@ -173,3 +180,89 @@ def test_the_api_edge_loads_no_solver_engine():
     run = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr
     assert run.stdout.strip() == "[]"
+
+
+def import_cycles(*packages: str) -> list[list[str]]:
+    """Every import cycle among the modules of ``packages``: the strongly connected components of
+    grimp's import graph (imports inside functions and under ``TYPE_CHECKING`` count too), each as
+    its sorted module names. Two modules that need each other share a third thing: move it into a
+    module of its own."""
+    graph = grimp.build_graph(*packages, cache_dir=None)
+    succ = {m: sorted(graph.find_modules_directly_imported_by(m)) for m in graph.modules}
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    cycles = []
+    for root in sorted(succ):   # Tarjan's algorithm, iterative (no recursion limit on long chains)
+        if root in index:
+            continue
+        index[root] = low[root] = len(index)
+        stack.append(root)
+        on_stack.add(root)
+        work = [(root, iter(succ[root]))]
+        while work:
+            node, todo = work[-1]
+            nxt = next(todo, None)
+            if nxt is not None:
+                if nxt not in index:
+                    index[nxt] = low[nxt] = len(index)
+                    stack.append(nxt)
+                    on_stack.add(nxt)
+                    work.append((nxt, iter(succ[nxt])))
+                elif nxt in on_stack:
+                    low[node] = min(low[node], index[nxt])
+                continue
+            work.pop()
+            if work:
+                low[work[-1][0]] = min(low[work[-1][0]], low[node])
+            if low[node] == index[node]:
+                component = []
+                while not component or component[-1] != node:
+                    component.append(stack.pop())
+                    on_stack.discard(component[-1])
+                if len(component) > 1 or node in succ[node]:
+                    cycles.append(sorted(component))
+    return sorted(cycles)
+
+
+def test_no_import_cycle_among_app_solvers_worker():
+    assert import_cycles("app", "solvers", "worker") == []
+
+
+def test_the_cycle_finder_catches_a_planted_cycle(tmp_path, monkeypatch):
+    pkg = tmp_path / "plantedcycle"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "a.py").write_text("from plantedcycle import b\n")
+    (pkg / "b.py").write_text("def f():\n    from plantedcycle.c import x\n    return x\n")
+    (pkg / "c.py").write_text("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from plantedcycle import a\nx = 1\n")
+    (pkg / "clean.py").write_text("from plantedcycle import c\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    assert import_cycles("plantedcycle") == [["plantedcycle.a", "plantedcycle.b", "plantedcycle.c"]]
+    (pkg / "c.py").write_text("x = 1\n")
+    assert import_cycles("plantedcycle") == []
+
+
+def long_modules(root: Path, packages) -> list[str]:
+    """``path: lines`` of every module of ``packages`` over MAX_MODULE_LINES, not allowed for now."""
+    out = []
+    for pkg in packages:
+        for path in sorted((root / pkg).rglob("*.py")):
+            rel = str(path.relative_to(root))
+            lines = len(path.read_text().splitlines())
+            if lines > MAX_MODULE_LINES and rel not in ALLOWED_LONG_MODULES:
+                out.append(f"{rel}: {lines}")
+    return out
+
+
+def test_no_module_over_400_lines():
+    # A module does one job; past ~400 lines it is a package waiting to be made (STYLE.md).
+    assert long_modules(ROOT, ("app", "solvers", "worker")) == []
+
+
+def test_the_length_check_catches_a_planted_long_module(tmp_path):
+    (tmp_path / "pkg").mkdir()
+    (tmp_path / "pkg" / "short.py").write_text("x = 1\n" * MAX_MODULE_LINES)
+    (tmp_path / "pkg" / "long.py").write_text("x = 1\n" * (MAX_MODULE_LINES + 1))
+    assert long_modules(tmp_path, ["pkg"]) == [f"pkg/long.py: {MAX_MODULE_LINES + 1}"]

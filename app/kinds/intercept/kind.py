@@ -55,8 +55,8 @@ def to_problem(params: InterceptParams):
     """Solver problem (SI, radians) from API parameters."""
     from solvers.astro.elements import Elements
     from solvers.intercept import InterceptProblem, PorkchopSettings, ScanSettings
-    from solvers.intercept_scenario import InterceptScenario
-    from solvers.intercept_thrust import MeshOptions
+    from solvers.intercept.scenario import InterceptScenario
+    from solvers.intercept.thrust import MeshOptions
 
     i, t, r = params.interceptor, params.target, math.radians
     pc, ft = params.porkchop, params.finite_thrust
@@ -91,7 +91,7 @@ def trajectory_guess(stored: dict):
     """A finite-thrust warm start from a stored intercept result."""
     import numpy as np
 
-    from solvers.intercept_thrust import TrajectoryGuess
+    from solvers.intercept.thrust import TrajectoryGuess
 
     tr = stored["finite_thrust"]["trajectory"]
     states = np.array([tr[k] for k in ("x_m", "y_m", "z_m", "vx_mps", "vy_mps", "vz_mps", "mass_kg")], float)
@@ -104,7 +104,7 @@ def trajectory_guess(stored: dict):
 
 def run(params: InterceptParams, ctx: JobContext) -> RunOutcome:
     from solvers import intercept as solver
-    from solvers.intercept_cases import is_paper_003
+    from solvers.intercept.cases import is_paper_003
 
     problem = to_problem(params)
     notes = []

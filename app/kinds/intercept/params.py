@@ -1,6 +1,6 @@
 """Parameters of the ``intercept`` kind (the API edge: SI units, angles in degrees).
 
-The defaults are paper 003's case as printed; ``solvers.intercept_cases.PAPER_003``
+The defaults are paper 003's case as printed; ``solvers.intercept.cases.PAPER_003``
 holds the same case in SI and radians and a test keeps the two equal.
 """
 from __future__ import annotations

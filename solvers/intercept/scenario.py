@@ -3,7 +3,7 @@
 Interceptor and target orbits at the epoch t0 = 0, the interceptor's vehicle data
 and the interception time ``tf_s`` (fixed, or free within ``tf_bounds_s``).  The
 impulsive method (:mod:`solvers.intercept`) and the finite-thrust method
-(:mod:`solvers.intercept_thrust`) both hold one of these; SI units and radians.
+(:mod:`solvers.intercept.thrust`) both hold one of these; SI units and radians.
 """
 from __future__ import annotations
 

@@ -1,14 +1,16 @@
 """What the finite-thrust method is asked and what it answers: mesh options, the
-problem (an :class:`~solvers.intercept_scenario.InterceptScenario` and a mesh), the two
-kinds of warm start, the solution, and the problem in nondimensional Hill units."""
+problem (an :class:`~solvers.intercept.scenario.InterceptScenario` and a mesh), the two
+kinds of warm start, the solution, the problem in nondimensional Hill units, and a warm start's control
+:class:`Plan` (here, not in planning, so that the layout reads it without importing planning)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 
 from solvers.common import SolveStatus
-from solvers.intercept_scenario import InterceptScenario
+from solvers.intercept.scenario import InterceptScenario
 from solvers.models import relative_motion as rm
 
 @dataclass(frozen=True)
@@ -114,3 +116,17 @@ def nondimensionalise(problem: FiniteThrustProblem) -> Scaled:
     return Scaled(sc=sc, x0=x0, tmax=sn.max_thrust_n / sc.force_n, c=sn.exhaust_speed_mps / sc.speed_mps,
                   m_dry=(sn.mass_kg - sn.propellant_kg) / sn.mass_kg,
                   tf=tf / sc.time_s, tf_lo=tf_lo / sc.time_s, tf_hi=tf_hi / sc.time_s)
+
+
+@dataclass
+class Plan:
+    """A control history to start from (nondimensional time)."""
+
+    windows: list[tuple[float, float]]                # burn intervals
+    direction: Callable[[np.ndarray], np.ndarray]     # t (K,) -> Hill unit vectors (3, K)
+    tf: float
+    states: Callable[[np.ndarray], np.ndarray] | None = None   # t -> (7, K); None: propagate
+
+    def on(self, t: np.ndarray) -> np.ndarray:
+        t = np.atleast_1d(t)
+        return np.any([(t >= a) & (t <= b) for a, b in self.windows], axis=0) if self.windows else np.zeros(t.size, bool)

@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from solvers.intercept_thrust.layout import Layout
-from solvers.intercept_thrust.problem import FiniteThrustProblem, Scaled
+from solvers.intercept.thrust.layout import Layout
+from solvers.intercept.thrust.problem import FiniteThrustProblem, Scaled
 from solvers.models import relative_motion as rm
 from solvers.transcription.lgl import Mesh, lagrange_matrix, lgl_nodes
 

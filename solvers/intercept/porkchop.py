@@ -3,7 +3,7 @@ time x interception time, the minimum over the Lambert branches (paper 003 spec,
 expect beyond the paper").
 
 Every cell is one Lambert problem per branch, solved in one batched call per branch; arcs
-through the planet are left out like in the scan (:mod:`solvers.intercept_branches`).
+through the planet are left out like in the scan (:mod:`solvers.intercept.branches`).
 """
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ import numpy as np
 
 from solvers.astro.kepler import propagate
 from solvers.astro.lambert import arc_min_radius, lambert
-from solvers.intercept_branches import Branch
+from solvers.intercept.branches import Branch
 
 _BLOCK = 32768
 

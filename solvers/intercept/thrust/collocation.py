@@ -7,8 +7,8 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from solvers.intercept_thrust.layout import Layout
-from solvers.intercept_thrust.problem import Scaled
+from solvers.intercept.thrust.layout import Layout
+from solvers.intercept.thrust.problem import Scaled
 from solvers.models import relative_motion as rm
 from solvers.transcription.lgl import collocation_constraints, legendre, lgl_integration_matrix, lgl_nodes, lgl_weights
 from solvers.transcription.nlp import NLPSolver

@@ -5,15 +5,11 @@ segments doubled where the re-propagation defects are large)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-from solvers.intercept_thrust.problem import MeshOptions, Scaled
+from solvers.intercept.thrust.problem import MeshOptions, Plan, Scaled
 from solvers.transcription.lgl import Mesh
-
-if TYPE_CHECKING:
-    from solvers.intercept_thrust.planning import Plan
 
 ARC_KINDS = ("coast", "burn", "free")
 # ----------------------------------------------------------------------------- layout

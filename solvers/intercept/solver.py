@@ -1,8 +1,8 @@
 """Long-range interception (paper 003): problem, methods, and the one entry point.
 
 Scenario and methods: paper 003 (optimal long-range interception, 2011),
-spec ``shared/specs/intercept.md``.  This module holds the problem dataclass
-shared by both methods and Method II, the impulsive single-burn interception:
+spec ``shared/specs/intercept.md``.  The problem and solutions are in
+:mod:`solvers.intercept.problem`; this module holds Method II, the impulsive single-burn interception:
 coast the interceptor on its orbit to the maneuver time ``t_man``, apply one
 impulse that puts it on the Lambert arc reaching the target's position at the
 fixed interception time ``t1``; delta-v(t_man) = |v_lambert - v_coast|
@@ -11,8 +11,8 @@ one batched Lambert call per branch (direction, revolutions, path); the best
 grid point is then refined with a bounded scalar minimization.  Fuel follows
 the rocket equation ``m0 (1 - exp(-dv / (Isp g0)))``.  Lambert arcs that pass
 through the planet are left out by default (``ScanSettings.exclude_through_planet``;
-the branches and their delta-v: :mod:`solvers.intercept_branches`; the porkchop
-map: :mod:`solvers.intercept_porkchop`).
+the branches and their delta-v: :mod:`solvers.intercept.branches`; the porkchop
+map: :mod:`solvers.intercept.porkchop`).
 
 The paper uses Battin-Vaughan's Lambert algorithm and reports 1501.73 m/s at
 4328 s; with its printed elements the model gives 2302.48 m/s at 3142.5 s
@@ -28,86 +28,18 @@ starts from the impulsive answer).
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from typing import Callable
 
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from solvers.astro.earth import AE_EARTH
 from solvers.astro.kepler import propagate
 from solvers.common import Outcome, ProgressFn, SolveStatus, StopFn, never_stop, noop_progress
-from solvers.intercept_branches import Branch, branches, delta_v
-from solvers.intercept_porkchop import Porkchop, PorkchopSettings, porkchop_map
-from solvers.intercept_scenario import InterceptScenario
-from solvers.intercept_thrust import (
-    FiniteThrustProblem, FiniteThrustSolution, ImpulsiveGuess, MeshOptions, solve_finite_thrust,
-)
-
-
-@dataclass(frozen=True)
-class ScanSettings:
-    """Maneuver-time enumeration and the Lambert branches searched."""
-
-    step_s: float = 0.5
-    t_start_s: float = 0.0           # window start (the epoch t0 = 0)
-    t_end_s: float | None = None     # window end, exclusive; None means t1
-    max_revolutions: int = 0         # also search 1..max_revolutions full revolutions
-    retrograde: bool = True          # also search retrograde transfers
-    refine: bool = True              # bounded minimization around the best grid point
-    # Lambert arcs that dip below this radius pass through the planet: left out of the scan,
-    # the refinement and the porkchop (and counted) unless exclude_through_planet is False
-    exclude_through_planet: bool = True
-    body_radius_m: float = AE_EARTH
-
-    @property
-    def excluded_below_m(self) -> float | None:
-        return self.body_radius_m if self.exclude_through_planet else None
-
-
-@dataclass(frozen=True)
-class InterceptProblem:
-    """The scenario and how to solve it: which methods, the scan, the mesh, the porkchop."""
-
-    scenario: InterceptScenario
-    methods: tuple[str, ...] = ("impulsive",)
-    scan: ScanSettings = field(default_factory=ScanSettings)
-    mesh: MeshOptions = field(default_factory=MeshOptions)   # finite-thrust collocation
-    porkchop: PorkchopSettings | None = None
-
-
-@dataclass
-class ImpulsiveSolution:
-    status: SolveStatus
-    t_man_s: np.ndarray                  # scan grid
-    delta_v_mps: np.ndarray              # min over branches, NaN where no branch converged
-    branch_index: np.ndarray             # index into ``branches`` of the minimum, -1 if none
-    branches: list[Branch]
-    best_t_man_s: float = float("nan")
-    best_delta_v_mps: float = float("nan")
-    delta_v_vector_mps: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
-    fuel_kg: float = float("nan")
-    best_branch: Branch | None = None
-    tf_s: float = float("nan")                  # the interception time
-    burn_position_m: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
-    velocity_before_mps: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
-    velocity_after_mps: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
-    relative_velocity_at_intercept_mps: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
-    miss_distance_m: float = float("nan")    # post-burn state re-propagated to t1 vs target
-    porkchop: Porkchop | None = None
-    # Lambert solutions (maneuver time x branch) left out because their arc passes through the
-    # planet, and maneuver times left with no admissible branch because of that
-    excluded_through_planet: int = 0
-    points_only_through_planet: int = 0
-
-
-@dataclass
-class InterceptSolution:
-    """What ``solve`` returns: one entry per requested method."""
-
-    status: SolveStatus
-    impulsive: ImpulsiveSolution | None = None
-    finite_thrust: object | None = None
+from solvers.intercept.branches import Branch, branches, delta_v
+from solvers.intercept.porkchop import PorkchopSettings, porkchop_map
+from solvers.intercept.problem import ImpulsiveSolution, InterceptProblem, InterceptSolution, ScanSettings
+from solvers.intercept.thrust import FiniteThrustProblem, FiniteThrustSolution, ImpulsiveGuess, solve_finite_thrust
 
 
 def _branches(scan: ScanSettings) -> list[Branch]:
@@ -265,7 +197,7 @@ def _impulsive_start(problem: InterceptProblem, earlier: ImpulsiveSolution | Non
 def solve_finite(problem: InterceptProblem, *, on_progress: ProgressFn | None = None,
                  should_stop: StopFn | None = None, initial_guess=None,
                  earlier: ImpulsiveSolution | None = None):
-    """Method I (``solvers.intercept_thrust``) on this scenario.
+    """Method I (``solvers.intercept.thrust``) on this scenario.
 
     ``initial_guess``: a ``TrajectoryGuess`` (e.g. from a stored job); without
     one the impulsive answer is the warm start.  ``earlier``: an impulsive

@@ -2,7 +2,7 @@
 one branch over a batch of burn states, with transfers through the planet left out.
 
 Shared by the maneuver-time scan (:mod:`solvers.intercept`) and the porkchop map
-(:mod:`solvers.intercept_porkchop`).  A Lambert arc from the burn point to the target may
+(:mod:`solvers.intercept.porkchop`).  A Lambert arc from the burn point to the target may
 dive below the Earth's surface on its way (a fast arc through periapsis); such an arc is no
 transfer, so by default its delta-v is NaN and it is counted (issue 15: a third of random
 answers passed through the planet unflagged).

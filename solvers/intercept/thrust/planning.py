@@ -3,31 +3,15 @@ propagation of the Hill dynamics under a plan (the initial states), and resampli
 solution onto a refined layout."""
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from solvers.intercept_thrust.layout import Layout, control_times
-from solvers.intercept_thrust.problem import FiniteThrustProblem, ImpulsiveGuess, Scaled, TrajectoryGuess
+from solvers.intercept.thrust.layout import Layout, control_times
+from solvers.intercept.thrust.problem import FiniteThrustProblem, ImpulsiveGuess, Plan, Scaled, TrajectoryGuess
 from solvers.models import relative_motion as rm
 
 # ----------------------------------------------------------------------------- warm starts
-
-@dataclass
-class Plan:
-    """A control history to start from (nondimensional time)."""
-
-    windows: list[tuple[float, float]]                # burn intervals
-    direction: Callable[[np.ndarray], np.ndarray]     # t (K,) -> Hill unit vectors (3, K)
-    tf: float
-    states: Callable[[np.ndarray], np.ndarray] | None = None   # t -> (7, K); None: propagate
-
-    def on(self, t: np.ndarray) -> np.ndarray:
-        t = np.atleast_1d(t)
-        return np.any([(t >= a) & (t <= b) for a, b in self.windows], axis=0) if self.windows else np.zeros(t.size, bool)
-
 
 def plan_impulsive(guess: ImpulsiveGuess, *, problem: FiniteThrustProblem, s: Scaled, tf: float) -> Plan:
     """One full-thrust burn spending the impulse's propellant, centred on its time, along its direction."""

@@ -10,7 +10,7 @@ import math
 from dataclasses import replace
 
 from solvers.astro.elements import Elements
-from solvers.intercept_scenario import InterceptScenario
+from solvers.intercept.scenario import InterceptScenario
 
 PAPER_003 = InterceptScenario(
     interceptor_orbit=Elements(a=16678.137e3, e=0.2, i=math.radians(28.5), raan=0.0, argp=0.0,

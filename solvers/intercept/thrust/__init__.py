@@ -42,21 +42,31 @@ where the engine is on, and the thrust must point along ``-lambda_v``.
 
 The package: ``problem`` (what is asked and answered), ``layout`` (arcs and
 segments), ``collocation`` (the NLP), ``planning`` (warm starts), ``diagnostics``
-(verification and optimality), ``solve`` (the loop).  This face re-exports what a
-caller needs, including the warm-start, verification and diagnostic functions
+(verification and optimality), ``solve`` (the loop).  This face re-exports (lazily,
+:mod:`solvers.lazy`) what a caller needs, including the warm-start, verification and diagnostic functions
 that ``benchmarks/intercept.py`` uses to treat other transcriptions the same way.
 """
 from __future__ import annotations
 
-from solvers.intercept_thrust.diagnostics import optimality_evidence, segment_defects, verify_controls
-from solvers.intercept_thrust.planning import Plan, plan_impulsive, plan_trajectory, propagate_hill
-from solvers.intercept_thrust.problem import (
-    FiniteThrustProblem, FiniteThrustSolution, ImpulsiveGuess, MeshOptions, Scaled, TrajectoryGuess, nondimensionalise,
-)
-from solvers.intercept_thrust.solve import solve_finite_thrust
+from typing import TYPE_CHECKING
 
-__all__ = [
-    "FiniteThrustProblem", "FiniteThrustSolution", "ImpulsiveGuess", "MeshOptions", "Plan", "Scaled",
-    "TrajectoryGuess", "nondimensionalise", "optimality_evidence", "plan_impulsive", "plan_trajectory",
-    "propagate_hill", "segment_defects", "solve_finite_thrust", "verify_controls",
-]
+from solvers.lazy import lazy_exports
+
+_EXPORTS = {
+    **dict.fromkeys(("optimality_evidence", "segment_defects", "verify_controls"), "diagnostics"),
+    **dict.fromkeys(("plan_impulsive", "plan_trajectory", "propagate_hill"), "planning"),
+    **dict.fromkeys(("FiniteThrustProblem", "FiniteThrustSolution", "ImpulsiveGuess", "MeshOptions", "Plan", "Scaled",
+                     "TrajectoryGuess", "nondimensionalise"), "problem"),
+    "solve_finite_thrust": "solve",
+}
+__all__ = sorted(_EXPORTS)
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+
+if TYPE_CHECKING:  # the same names, for readers, type checkers and import-graph tools
+    from solvers.intercept.thrust.diagnostics import optimality_evidence, segment_defects, verify_controls
+    from solvers.intercept.thrust.planning import plan_impulsive, plan_trajectory, propagate_hill
+    from solvers.intercept.thrust.problem import (
+        FiniteThrustProblem, FiniteThrustSolution, ImpulsiveGuess, MeshOptions, Plan, Scaled, TrajectoryGuess,
+        nondimensionalise,
+    )
+    from solvers.intercept.thrust.solve import solve_finite_thrust
