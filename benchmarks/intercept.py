@@ -36,7 +36,8 @@ import numpy as np
 
 from solvers.intercept import InterceptProblem, ScanSettings, solve_impulsive
 from solvers.intercept.cases import PAPER_003, REFERENCE_FUEL_KG
-from solvers.intercept.thrust import (FiniteThrustProblem, ImpulsiveGuess, MeshOptions, nondimensionalise, plan_impulsive, propagate_hill, solve_finite_thrust, verify_controls)
+from solvers.intercept.thrust import (FiniteThrustProblem, ImpulsiveGuess, MeshOptions, nondimensionalise,
+                                      plan_impulsive, propagate_hill, solve_finite_thrust, verify_controls)
 from solvers.models import relative_motion as rm
 from solvers.transcription import nlp
 from solvers.transcription.lgl import Mesh

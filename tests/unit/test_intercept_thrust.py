@@ -9,7 +9,8 @@ from solvers.astro.kepler import propagate
 from solvers.common import Outcome, SolveStatus
 from solvers.intercept import InterceptProblem, ScanSettings, solve_impulsive
 from solvers.intercept.cases import CONVERGED_FUEL_KG, PAPER_003, REFERENCE_FUEL_KG
-from solvers.intercept.thrust import (FiniteThrustProblem, ImpulsiveGuess, MeshOptions, TrajectoryGuess, solve_finite_thrust)
+from solvers.intercept.thrust import (FiniteThrustProblem, ImpulsiveGuess, MeshOptions, TrajectoryGuess,
+                                      solve_finite_thrust)
 from solvers.models import relative_motion as rm
 
 MU = PAPER_003.mu_m3_s2

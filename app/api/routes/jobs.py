@@ -16,7 +16,8 @@ from app.kinds import KINDS, PRESETS
 from app.api.params import resolve_params
 from app.results.compact import compact
 from app.api.result_body import JobResult, result_json
-from app.api.schemas import (ErrorBody, JobList, JobOut, JobStatus, JobSubmission, NotSucceededBody, ValidationErrorBody)
+from app.api.schemas import (ErrorBody, JobList, JobOut, JobStatus, JobSubmission, NotSucceededBody,
+                             ValidationErrorBody)
 from app.service.broker import publish_job
 
 router = APIRouter(prefix="/v1/jobs", tags=["jobs"])

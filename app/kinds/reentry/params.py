@@ -12,7 +12,8 @@ from typing import Literal
 from pydantic import Field, ValidationInfo, field_validator, model_validator
 
 from app.kinds.base import StrictModel
-from app.kinds.reentry.vehicle import (AtmosphereName, PlanetName, ReentryAeroTable, ReentryAtmosphereModel, ReentryHeating, ReentryPlanet, VehicleName, has_aero_table)
+from app.kinds.reentry.vehicle import (AtmosphereName, PlanetName, ReentryAeroTable, ReentryAtmosphereModel,
+                                       ReentryHeating, ReentryPlanet, VehicleName, has_aero_table)
 from solvers.models import shuttle as sh
 from solvers.models.reentry_state import (
     ALTITUDE,

@@ -9,10 +9,12 @@ import numpy as np
 
 from solvers.common import Outcome, ProgressFn, StopFn
 from solvers.intercept.thrust.collocation import build_nlp, costates, nlp_bounds, pack_variables, unpack_variables
-from solvers.intercept.thrust.diagnostics import (arc_table, burns_from_throttle, optimality_evidence, segment_defects, verify_controls)
+from solvers.intercept.thrust.diagnostics import (arc_table, burns_from_throttle, optimality_evidence,
+                                                  segment_defects, verify_controls)
 from solvers.intercept.thrust.layout import layout_for, missing_burn, refined_layout, without_short_arcs
 from solvers.intercept.thrust.planning import initial_values, plan_impulsive, plan_trajectory, resample
-from solvers.intercept.thrust.problem import (FiniteThrustProblem, FiniteThrustSolution, ImpulsiveGuess, TrajectoryGuess, nondimensionalise)
+from solvers.intercept.thrust.problem import (FiniteThrustProblem, FiniteThrustSolution, ImpulsiveGuess,
+                                              TrajectoryGuess, nondimensionalise)
 from solvers.transcription.nlp import cached_solver
 
 # ----------------------------------------------------------------------------- solve
