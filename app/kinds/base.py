@@ -126,7 +126,8 @@ class Preset:
 @dataclass
 class KindSpec:
     """Everything the service needs to know about one kind: adding a kind is its
-    module plus a line in the registry (``app/kinds/__init__.py``)."""
+    package (``app/kinds/<kind>/``, with ``solvers/<kind>/``) plus a line in the registry
+    (``app/kinds/__init__.py``)."""
 
     kind: str
     params_model: type[StrictModel]

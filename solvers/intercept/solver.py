@@ -22,7 +22,7 @@ The paper uses Battin-Vaughan's Lambert algorithm and reports 1501.73 m/s at
 ``solve`` dispatches over ``problem.methods``; a method is a function
 ``(problem, *, on_progress, should_stop, initial_guess, earlier) -> <Method>Solution``
 registered in ``METHODS`` (``earlier``: the impulsive solution when it ran
-first; the finite-thrust method lives in ``solvers/intercept_thrust/`` and
+first; the finite-thrust method lives in ``solvers/intercept/thrust/`` and
 starts from the impulsive answer).
 """
 from __future__ import annotations
