@@ -72,6 +72,34 @@ def test_invalid_parameters_show_the_422_next_to_the_field(browser_page):
     assert page.url.startswith(f"{url}/new")  # nothing was submitted
 
 
+def test_an_ocp_problem_is_edited_as_json_and_each_422_is_listed_with_its_line(browser_page):
+    url, page, _ = browser_page
+    page.goto(f"{url}/new?kind=ocp")
+    page.wait_for_function("document.querySelector('#params-json').value.includes('dynamics')")
+    assert page.is_visible("#params-json") and page.is_hidden("#params")
+    text = page.input_value("#params-json")   # the brachistochrone preset, the first of the kind
+    assert '"x": "v*sin(theta)"' in text
+    page.fill("#params-json", text.replace('"x": "v*sin(theta)"', '"x": "v*sin(teta)"'))
+    page.click("#submit")
+    page.wait_for_selector("#json-errors li")
+    error = page.inner_text("#json-errors")
+    assert "params.dynamics.x (line " in error and "unknown name 'teta'; did you mean 'theta'?" in error
+    selected = page.evaluate("(() => { const a = document.querySelector('#params-json');"
+                             " return a.value.slice(a.selectionStart, a.selectionEnd); })()")
+    assert '"x": "v*sin(teta)"' in selected   # the line of the field named is selected
+    assert page.url.startswith(f"{url}/new")  # nothing was submitted
+    page.fill("#params-json", "{not json")
+    page.click("#submit")
+    assert "not valid JSON" in page.inner_text("#form-error")
+    page.fill("#params-json", text)
+    page.click("#submit")
+    page.wait_for_url(f"{url}/jobs/*")
+    page.wait_for_function("document.querySelector('#status').textContent === 'succeeded'", timeout=120_000)
+    page.wait_for_selector("#plots img")
+    assert page.locator("#plots img").count() >= 4   # every state and control against time
+    assert "objective" in page.inner_text("#numbers")
+
+
 def test_cancel_a_running_job_from_its_page(browser_page, service):
     url, page, _ = browser_page
     job = service.submit("midcourse", preset="upper-stage-two-corrections", params=LONG_MIDCOURSE).json()

@@ -111,6 +111,9 @@ def test_warm_start_from_a_solved_job(service, brachistochrone):
     result = service.result(done["id"])
     assert result["warm_start"] == brachistochrone["id"]
     assert result["objective"]["value"] == pytest.approx(1.8016, abs=CASES["brachistochrone"]["tolerance"])
+    # the console overlays the two (the first pair the problem asked for, else its first state against time)
+    png = service.client.get("/console/compare.png", params={"ids": f"{brachistochrone['id']},{done['id']}"})
+    assert png.status_code == 200 and png.content[:4] == b"\x89PNG"
 
 
 def test_a_malformed_problem_is_a_422_naming_the_field_and_nothing_is_stored(service):

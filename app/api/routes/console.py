@@ -102,6 +102,12 @@ def _series(kind: str, result: dict):
             return tr["t_s"], tr["mass_kg"], "time (s)", "mass (kg)", "-"
         scan = result["impulsive"]["scan"]
         return scan["t_man_s"], scan["delta_v_mps"], "maneuver time (s)", "delta-v (m/s)", "-"
+    if kind == "ocp":  # the first pair the problem asked for in `plots`, else its first quantity against time
+        tr = result["trajectory"]
+        x, y = (result.get("plots") or [["t", next((n for n in tr if n != "t"), "t")]])[0]
+        if not (isinstance(tr.get(x), list) and isinstance(tr.get(y), list)):
+            raise HTTPException(status_code=422, detail=f"compare needs ocp jobs that all have {x} and {y}")
+        return tr[x], tr[y], x, y, "-"
     raise HTTPException(status_code=422, detail=f"no comparison plot for kind {kind}")
 
 
