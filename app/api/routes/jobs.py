@@ -49,6 +49,9 @@ def submit_job(
         "preset": {"summary": "Run a paper case", "value": {"kind": "intercept", "preset": "long-range-intercept"}},
         "override": {"summary": "A preset with overrides",
                      "value": {"kind": "reentry", "preset": "betts-max-crossrange", "params": {"grid": {"intervals": 50}}}},
+        "ocp": {"summary": "Your own optimal-control problem (docs/tutorials/ocp.md)",
+                "value": {"kind": "ocp", "params": PRESETS["brachistochrone"].params if "brachistochrone" in PRESETS
+                          else {}}},
     })],
     request: Request, principal: PrincipalDep,
     idempotency_key: Annotated[str | None, Header(max_length=200, description="Repeat a submission safely: the same key and body return the same job")] = None,
