@@ -22,7 +22,8 @@ from solvers.transcription.lgl import lagrange_matrix, lgl_nodes
 
 METHOD = "scipy DOP853, rtol 1e-10, continuous from the initial state, controls as transcribed"
 SAMPLES_PER_INTERVAL = 20
-LIMIT_TOLERANCE = 1e-3      # a path bound holds to 0.1% of the constraint's scale (as reentry's limits)
+LIMIT_TOLERANCE = 1e-3
+MAX_RHS_CALLS = 2_000_000   # about 10 s of DOP853      # a path bound holds to 0.1% of the constraint's scale (as reentry's limits)
 
 
 @dataclass
@@ -50,6 +51,8 @@ class Verification:
 def control_function(grid, t_nodes: np.ndarray, U: np.ndarray):
     """``u(t, interval)``: the transcription's control on interval ``interval`` at times ``t``."""
     m = grid.intervals
+    if U.shape[0] == 0:
+        return lambda t, k: np.zeros((0, np.size(t)))
     if grid.method == "multiple_shooting":
         if grid.control == "constant":
             return lambda t, k: np.repeat(U[:, k:k + 1], np.size(t), axis=1)
@@ -84,11 +87,21 @@ def _fast_rhs(fns, args):
     buf.set_arg(0, memoryview(a))
     buf.set_res(0, memoryview(res))
 
+    calls = [0]
+
     def rhs(ti, xi, ui):
         a[0] = ti
         a[1:1 + nx] = xi
         a[1 + nx:1 + nx + nu] = ui
         trigger()
+        calls[0] += 1
+        # DOP853 keeps shrinking its step on a NaN (it never stops by itself), and a stiff or
+        # singular problem can cost millions of steps: both end the re-flight as a failed check.
+        if not np.isfinite(res).all():
+            raise FloatingPointError(f"the dynamics are not finite at t = {ti:.6g}")
+        if calls[0] > MAX_RHS_CALLS:
+            raise RuntimeError(f"more than {MAX_RHS_CALLS} right-hand-side evaluations (a stiff or "
+                               "singular trajectory)")
         return res.copy()
     rhs.buffer = buf          # keeps the buffer alive with the closure
     return rhs

@@ -168,3 +168,29 @@ def test_coarse_lgl_that_exploits_the_grid_is_flagged():
     if sol.status.ok and sol.verification["max_state_difference_scaled_overall"] > 1e-2:
         assert not sol.verification["agrees"]
         assert any("depart" in n for n in sol.notes)
+
+
+def test_non_finite_dynamics_fail_as_a_value_quickly():
+    params = {"states": [{"name": "x", "initial": -1.0, "final": 1.0}],
+              "controls": [{"name": "u", "lower": -1.0, "upper": 1.0}],
+              "time": {"initial": 0.0, "final": 2.0}, "dynamics": {"x": "sqrt(x) + u"},
+              "objective": {"sense": "minimize", "integrand": "u**2"}, "transcription": {"intervals": 10}}
+    sol = run(params)
+    assert sol.status.outcome is Outcome.FAILED
+    assert sol.status.solver_status == "Invalid_Number_Detected"
+    assert not sol.verification["ok"]
+
+
+def test_no_controls_a_parameter_and_nonzero_t0():
+    """A ballistic arc from y = 0 back to y = 0 in 2 s: the launch speed v0 (a parameter) is g."""
+    params = {"constants": {"g": 9.81},
+              "states": [{"name": "y", "initial": 0.0, "final": 0.0}, {"name": "vy"}],
+              "parameters": [{"name": "v0", "lower": 0.0, "upper": 100.0, "guess": 5.0}],
+              "time": {"initial": 1.0, "final": 3.0},
+              "dynamics": {"y": "vy", "vy": "-g + 0*t"},
+              "boundary": [{"expr": "initial(vy) - v0", "lower": 0.0, "upper": 0.0}],
+              "objective": {"sense": "minimize", "expr": "v0**2"}, "transcription": {"intervals": 10}}
+    sol = run(params)
+    assert sol.status.outcome is Outcome.OPTIMAL
+    assert sol.parameters["v0"] == pytest.approx(9.81, abs=1e-8)
+    assert sol.t0 == 1.0 and sol.trajectory["t"][0] == 1.0 and sol.tf == 3.0
