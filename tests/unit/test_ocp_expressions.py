@@ -299,3 +299,20 @@ def test_fuzz_field_shapes(value, field):
         parse_problem(body)
     except OcpInputError as e:
         assert e.path.startswith("params")
+
+
+@settings(max_examples=150, deadline=None)
+@given(trees())
+def test_fuzz_parsed_trees_map_onto_casadi(expr):
+    """Whatever parses also builds: the CasADi mapping never raises on a validated tree."""
+    import numpy as np
+
+    from solvers.ocp.symbolic import phase_functions
+    try:
+        problem = parse_problem(with_dynamics(expr))
+    except OcpInputError:
+        return
+    fns = phase_functions(problem)
+    out = fns.rhs(0.5, np.array([1.0, 2.0, 3.0]), np.array([0.3]), np.array([0.5]),
+                  np.array([9.80665, 0.5]), 0.0, 2.0)
+    assert out.shape == (3, 1)

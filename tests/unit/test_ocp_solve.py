@@ -194,3 +194,14 @@ def test_no_controls_a_parameter_and_nonzero_t0():
     assert sol.status.outcome is Outcome.OPTIMAL
     assert sol.parameters["v0"] == pytest.approx(9.81, abs=1e-8)
     assert sol.t0 == 1.0 and sol.trajectory["t"][0] == 1.0 and sol.tf == 3.0
+
+
+def test_a_study_over_constants_and_bounds_reuses_the_build():
+    params = copy.deepcopy(PRESETS["brachistochrone"]["params"])
+    first = run(params)
+    params["constants"]["g"] = 1.62                       # the Moon
+    params["states"][0]["final"] = 8.0
+    again = run(params)
+    assert first.status.ok and again.status.ok
+    assert again.solver["cached_build"] and again.status.build_time_s == 0.0
+    assert again.tf > first.tf                             # weaker gravity: slower descent
