@@ -5,9 +5,11 @@ standard-library only, so the API process validates a problem and lists the pres
 loading numpy or CasADi; :func:`solve` and :class:`OcpSolution` are loaded on first use
 (PEP 562), together with CasADi.
 
-Modules: ``expressions`` (the safe grammar), ``spec`` (params -> :class:`OcpProblem`),
-``cases`` (presets with published optima), ``symbolic`` (tree -> CasADi SX), ``phase`` (one
-phase -> NLP pieces: multiple shooting or LGL), ``verify`` (dense re-propagation), ``limits`` (limits that hold between nodes), ``solver`` (solve).
+Modules: ``expressions`` (the safe grammar), ``problem`` (the typed dataclasses), ``spec``
+(params -> :class:`OcpProblem`), ``cases`` (presets with published optima); with CasADi:
+``symbolic`` (tree -> SX), ``phase`` (one phase -> a cached NLP, multiple shooting or LGL, with
+block derivatives), ``verify`` (DOP853 re-flight), ``limits`` (limits that hold between the
+nodes), ``solver`` (:func:`solve`).
 """
 from __future__ import annotations
 

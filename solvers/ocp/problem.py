@@ -1,0 +1,160 @@
+"""The ``ocp`` problem as typed, frozen dataclasses: what :func:`solvers.ocp.spec.parse_problem` returns.
+
+A phase (states, controls, time, expressions, dynamics, path, boundary, transcription, guess) is
+its own dataclass, :class:`Phase`, so that several phases can be a list of them later; the
+constants, tables, parameters and the objective belong to the problem.  Standard library only.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from solvers.ocp.expressions import Expr, to_text
+
+PHASE_FIELDS = ("states", "controls", "time", "expressions", "dynamics", "path", "boundary", "transcription",
+                "guess", "state_names", "control_names")
+
+
+@dataclass(frozen=True)
+class VariableDecl:
+    """What states and controls declare alike: bounds over the whole phase, a typical magnitude
+    (``scale``; by default the largest finite bound or boundary value) and a unit for display."""
+
+    name: str
+    lower: float | None = None
+    upper: float | None = None
+    scale: float | None = None
+    unit: str | None = None
+
+
+@dataclass(frozen=True)
+class ControlDecl(VariableDecl):
+    pass
+
+
+@dataclass(frozen=True)
+class StateDecl(VariableDecl):
+    initial: float | None = None      # a number fixes the value at t0, None leaves it free
+    final: float | None = None
+
+
+@dataclass(frozen=True)
+class ParameterDecl:
+    name: str
+    lower: float | None = None
+    upper: float | None = None
+    guess: float | None = None
+
+
+@dataclass(frozen=True)
+class TableDecl:
+    """Gridded data on 1 or 2 strictly increasing axes, ``values`` row-major (first axis slowest)."""
+
+    name: str
+    axes: tuple[tuple[float, ...], ...]
+    values: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class Constraint:
+    expr: Expr
+    text: str
+    lower: float | None = None
+    upper: float | None = None
+    name: str = ""
+
+
+@dataclass(frozen=True)
+class Objective:
+    sense: str                         # "minimize" | "maximize"
+    expr: Expr | None = None           # Mayer term
+    integrand: Expr | None = None      # Lagrange term
+    expr_text: str = ""
+    integrand_text: str = ""
+
+
+@dataclass(frozen=True)
+class TimeSpec:
+    initial: float = 0.0
+    final: float | None = None         # None: free final time
+    final_lower: float | None = None
+    final_upper: float | None = None
+    final_guess: float | None = None
+
+
+@dataclass(frozen=True)
+class Transcription:
+    method: str = "multiple_shooting"
+    intervals: int = 50
+    control: str = "linear"            # multiple shooting: "linear" | "constant"
+    substeps: int = 2                  # multiple shooting: RK4 steps per interval
+    nodes: int = 4                     # lgl: nodes per segment (polynomial degree nodes - 1)
+
+
+@dataclass(frozen=True)
+class Guess:
+    states: dict = field(default_factory=dict)      # name -> (first, last)
+    controls: dict = field(default_factory=dict)
+    tf: float | None = None
+    from_job: str | None = None
+
+
+@dataclass(frozen=True)
+class Phase:
+    """One phase: what a multi-phase problem will repeat."""
+
+    states: tuple[StateDecl, ...]
+    controls: tuple[ControlDecl, ...]
+    time: TimeSpec
+    expressions: tuple[tuple[str, Expr], ...]
+    dynamics: tuple[Expr, ...]         # in the order of ``states``
+    path: tuple[Constraint, ...]
+    boundary: tuple[Constraint, ...]
+    transcription: Transcription
+    guess: Guess
+
+    @property
+    def state_names(self) -> tuple[str, ...]:
+        return tuple(s.name for s in self.states)
+
+    @property
+    def control_names(self) -> tuple[str, ...]:
+        return tuple(c.name for c in self.controls)
+
+
+@dataclass(frozen=True)
+class OcpProblem:
+    title: str
+    constants: tuple[tuple[str, float], ...]
+    tables: tuple[TableDecl, ...]
+    parameters: tuple[ParameterDecl, ...]
+    phase: Phase
+    objective: Objective
+    accuracy: float | None = None
+    plots: tuple[tuple[str, str], ...] = ()
+
+    def __getattr__(self, name: str):
+        # The single phase's fields read as the spec names them (problem.states, problem.dynamics).
+        if name in PHASE_FIELDS:
+            return getattr(self.phase, name)
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
+    def structure(self) -> tuple:
+        """What the NLP's symbolic graph depends on (the solver cache key): names, trees, tables,
+        which bounds exist, the objective's form and the grid.  Constants, bounds, fixed boundary
+        values and t0 are not in it: they reach the NLP as parameters or bounds."""
+        ph = self.phase
+        return (
+            tuple(n for n, _ in self.constants),
+            tuple((tb.name, tb.axes, tb.values) for tb in self.tables),
+            tuple(p.name for p in self.parameters),
+            ph.state_names, ph.control_names,
+            tuple((n, to_text(e)) for n, e in ph.expressions),
+            tuple(to_text(e) for e in ph.dynamics),
+            tuple(to_text(c.expr) for c in ph.path),
+            tuple(to_text(c.expr) for c in ph.boundary),
+            self.objective.sense,
+            None if self.objective.expr is None else to_text(self.objective.expr),
+            None if self.objective.integrand is None else to_text(self.objective.integrand),
+            ph.time.final is None,
+            ph.transcription,
+        )
