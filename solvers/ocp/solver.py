@@ -10,6 +10,7 @@ solution's ``status.outcome`` says ``infeasible``, ``not_converged``, ``limit_no
 """
 from __future__ import annotations
 
+import threading
 import time
 from dataclasses import dataclass, field
 
@@ -23,6 +24,7 @@ from solvers.ocp.symbolic import PhaseFunctions, phase_functions
 from solvers.ocp.verify import Verification, verify
 
 _FUNCTIONS: dict[tuple, PhaseFunctions] = {}
+_FUNCTIONS_LOCK = threading.Lock()
 TF_MIN_FRACTION = 1e-6
 # Without ``accuracy``, re-flown states within 1% of their scale count as agreeing with the answer.
 AGREEMENT_TOLERANCE = 1e-2      # a free phase lasts at least this fraction of its time scale
@@ -54,17 +56,22 @@ def reset_caches() -> None:
     """Forget the symbolic functions (benchmarks time a cold build with this and
     :func:`solvers.transcription.nlp.clear_cache`)."""
     from solvers.ocp.symbolic import table_function
-    _FUNCTIONS.clear()
+    with _FUNCTIONS_LOCK:
+        _FUNCTIONS.clear()
     table_function.cache_clear()
 
 
 def functions_of(problem: OcpProblem) -> PhaseFunctions:
+    """The phase's SX functions, built once per structure (grid aside) in this process."""
     key = problem.structure()[:-1]          # the functions do not depend on the grid
-    fns = _FUNCTIONS.get(key)
+    with _FUNCTIONS_LOCK:
+        fns = _FUNCTIONS.get(key)
     if fns is None:
-        if len(_FUNCTIONS) > 32:
-            _FUNCTIONS.clear()
-        fns = _FUNCTIONS[key] = phase_functions(problem)
+        fns = phase_functions(problem)
+        with _FUNCTIONS_LOCK:
+            if len(_FUNCTIONS) > 32:
+                _FUNCTIONS.clear()
+            _FUNCTIONS[key] = fns
     return fns
 
 
