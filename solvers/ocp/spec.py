@@ -210,50 +210,11 @@ def parse_problem(params: dict, limits: OcpLimits = OcpLimits()) -> OcpProblem:
         names.declare(cname, "constant", cp)
         constants.append((cname, _number(cval, cp, optional=False)))
 
-    states = []
-    states_raw = _list(params.get("states"), f"{P}.states")
-    if not states_raw:
+    states = _declarations(params, "states", names, limits)
+    if not states:
         raise OcpInputError(f"{P}.states", "at least one state is required")
-    if len(states_raw) > limits.max_states:
-        raise OcpInputError(f"{P}.states", f"{len(states_raw)} states exceed the limit max_states={limits.max_states}")
-    for i, s in enumerate(states_raw):
-        sp = f"{P}.states.{i}"
-        s = _obj(s, sp)
-        _unknown_fields(s, ("name", "initial", "final", "lower", "upper", "scale", "unit"), sp)
-        decl = StateDecl(name=names.declare(s.get("name"), "state", f"{sp}.name"),
-                         **{k: _number(s.get(k), f"{sp}.{k}") for k in ("initial", "final", "lower", "upper", "scale")},
-                         unit=_unit(s.get("unit"), f"{sp}.unit"))
-        _decl_checks(decl, sp)
-        states.append(decl)
-
-    controls = []
-    controls_raw = _list(params.get("controls"), f"{P}.controls")
-    if len(controls_raw) > limits.max_controls:
-        raise OcpInputError(f"{P}.controls", f"{len(controls_raw)} controls exceed the limit "
-                                             f"max_controls={limits.max_controls}")
-    for i, c in enumerate(controls_raw):
-        cp = f"{P}.controls.{i}"
-        c = _obj(c, cp)
-        _unknown_fields(c, ("name", "lower", "upper", "scale", "unit"), cp)
-        decl = ControlDecl(name=names.declare(c.get("name"), "control", f"{cp}.name"),
-                           **{k: _number(c.get(k), f"{cp}.{k}") for k in ("lower", "upper", "scale")},
-                           unit=_unit(c.get("unit"), f"{cp}.unit"))
-        _decl_checks(decl, cp)
-        controls.append(decl)
-
-    parameters = []
-    params_raw = _list(params.get("parameters"), f"{P}.parameters")
-    if len(params_raw) > limits.max_parameters:
-        raise OcpInputError(f"{P}.parameters", f"{len(params_raw)} parameters exceed the limit "
-                                               f"max_parameters={limits.max_parameters}")
-    for i, q in enumerate(params_raw):
-        qp = f"{P}.parameters.{i}"
-        q = _obj(q, qp)
-        _unknown_fields(q, ("name", "lower", "upper", "guess"), qp)
-        decl = ParameterDecl(name=names.declare(q.get("name"), "parameter", f"{qp}.name"),
-                             **{k: _number(q.get(k), f"{qp}.{k}") for k in ("lower", "upper", "guess")})
-        _bounds(decl.lower, decl.upper, qp)
-        parameters.append(decl)
+    controls = _declarations(params, "controls", names, limits)
+    parameters = _declarations(params, "parameters", names, limits)
 
     time = _time(_obj(params.get("time"), f"{P}.time"), f"{P}.time")
 
@@ -340,6 +301,35 @@ def parse_problem(params: dict, limits: OcpLimits = OcpLimits()) -> OcpProblem:
                       accuracy=accuracy, plots=tuple(plots))
 
 
+# field -> (class, kind of name, its number fields, whether it has a unit, its limit)
+_DECLARATIONS = {
+    "states": (StateDecl, "state", ("initial", "final", "lower", "upper", "scale"), True, "max_states"),
+    "controls": (ControlDecl, "control", ("lower", "upper", "scale"), True, "max_controls"),
+    "parameters": (ParameterDecl, "parameter", ("lower", "upper", "guess"), False, "max_parameters"),
+}
+
+
+def _declarations(params: dict, field: str, names: _Names, limits: OcpLimits) -> list:
+    """The declared states, controls or parameters, in order, their names entered in ``names``."""
+    cls, kind, numbers, has_unit, limit = _DECLARATIONS[field]
+    path = f"params.{field}"
+    raw = _list(params.get(field), path)
+    cap = getattr(limits, limit)
+    if len(raw) > cap:
+        raise OcpInputError(path, f"{len(raw)} {field} exceed the limit {limit}={cap}")
+    out = []
+    for i, d in enumerate(raw):
+        dp = f"{path}.{i}"
+        d = _obj(d, dp)
+        _unknown_fields(d, ("name", *numbers, *(("unit",) if has_unit else ())), dp)
+        extra = {"unit": _unit(d.get("unit"), f"{dp}.unit")} if has_unit else {}
+        decl = cls(name=names.declare(d.get("name"), kind, f"{dp}.name"),
+                   **{k: _number(d.get(k), f"{dp}.{k}") for k in numbers}, **extra)
+        _decl_checks(decl, dp)
+        out.append(decl)
+    return out
+
+
 def _unit(value, path: str) -> str | None:
     if value is None:
         return None
@@ -350,7 +340,8 @@ def _unit(value, path: str) -> str | None:
 
 def _decl_checks(decl, path: str) -> None:
     _bounds(decl.lower, decl.upper, path)
-    if decl.scale is not None and not decl.scale > 0:
+    scale = getattr(decl, "scale", None)
+    if scale is not None and not scale > 0:
         raise OcpInputError(f"{path}.scale", "must be positive")
     for end in ("initial", "final"):
         v = getattr(decl, end, None)
