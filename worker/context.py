@@ -66,7 +66,7 @@ class WorkerJobContext:
             return run_monte_carlo(spec, samples, seed, chunk_size)
         from worker import fanout
 
-        return fanout.run_distributed(self.celery, redis_client(self.settings.broker_url),
+        return fanout.run_distributed(self.celery, redis_client(self.settings.broker_url, settings=self.settings),
                                       spec=spec, samples=samples, seed=seed,
                                       chunk_size=int(chunk_size or threshold), should_stop=self.should_stop)
 

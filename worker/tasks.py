@@ -16,7 +16,7 @@ import logging
 import socket
 import time
 
-from celery.exceptions import SoftTimeLimitExceeded
+from celery.exceptions import Ignore, SoftTimeLimitExceeded
 from sqlalchemy.exc import DBAPIError, OperationalError
 from sqlalchemy.exc import TimeoutError as PoolTimeout
 
@@ -41,7 +41,8 @@ class DatabaseUnavailable(Exception):
 
 
 def execute_job(db: Database, settings: Settings, job_id: str, attempt: int, *, worker: str) -> str | None:
-    """Claim, run and store one job. Returns the final status, or None if this delivery was stale.
+    """Claim, run and store one job. Returns the stored final status, None if this delivery was stale
+    (never claimed), or :data:`REFUSED` if it ran but its result was not stored.
 
     Raises :class:`DatabaseUnavailable` when the claim cannot reach the database.
     """
@@ -75,27 +76,42 @@ def execute_job(db: Database, settings: Settings, job_id: str, attempt: int, *, 
         # The solver stopped because should_stop() saw the deadline, not a user.
         outcome = RunOutcome("failed", result=outcome.result, error=_time_limit_error(settings, claim.kind))
     message = {"succeeded": "done", "cancelled": "cancelled"}.get(outcome.status) or (outcome.error or {}).get("message", "failed")
-    _store(db, settings, job_id, claim.attempt, outcome, message[:2000])
+    stored = _store(db, settings, job_id, claim.attempt, outcome, message[:2000])
+    if stored is not True:
+        # Not this attempt's to move anything on: the attempt whose result is stored advances the study
+        # (or the recovery loop's backstop does), so a study moves on once per point, not once per attempt.
+        if stored is False:
+            log.warning("job %s attempt %d refused: its %s result was not stored (the job was taken over by "
+                        "another attempt, or finished or cancelled meanwhile)", job_id, claim.attempt, outcome.status)
+        return REFUSED
+    log.info("job %s attempt %d stored: %s", job_id, claim.attempt, outcome.status)
     for nxt in studies.on_point_finished(db, job_id):  # a study's next point (or a retry)
         publish_or_defer(db, celery_app, settings, nxt)
     return outcome.status
 
 
-def _store(db: Database, settings: Settings, job_id: str, attempt: int, outcome: RunOutcome, message: str) -> None:
+# What run_job returns for an attempt whose result was not stored (Celery logs the value it returns).
+REFUSED = "refused (stale attempt, result not stored)"
+
+
+def _store(db: Database, settings: Settings, job_id: str, attempt: int, outcome: RunOutcome,
+           message: str) -> bool | None:
     """Store the outcome, retrying through a database outage for up to ``stale_after_s``: after that
-    the reaper would hand the job to another worker anyway, and this result is dropped."""
+    the reaper would hand the job to another worker anyway, and this result is dropped.  Each try is
+    bounded by the database timeouts (app.runtime.db), so the slot is free within about
+    ``stale_after_s + db_tcp_user_timeout_s + db_connect_timeout_s``.  True: stored; False: refused
+    (this attempt no longer holds the job); None: the database never answered."""
     deadline = time.monotonic() + settings.stale_after_s
     delay = 0.5
     while True:
         try:
-            jobs.finish(db, job_id, attempt, status=outcome.status, result=outcome.result,
-                        error=outcome.error, message=message)
-            return
+            return jobs.finish(db, job_id, attempt, status=outcome.status, result=outcome.result,
+                               error=outcome.error, message=message)
         except DB_ERRORS as exc:
             if time.monotonic() + delay > deadline:
-                log.error("job %s: result not stored, database unreachable (%s); the reaper will re-run it",
-                          job_id, type(exc).__name__)
-                return
+                log.error("job %s attempt %d: result not stored, database unreachable (%s); the reaper will "
+                          "re-run it", job_id, attempt, type(exc).__name__)
+                return None
             time.sleep(delay)
             delay = min(2 * delay, 5.0)
 
@@ -110,16 +126,20 @@ def _time_limit_error(settings: Settings, kind: str) -> dict:
 def run_job(self, job_id: str, attempt: int) -> str | None:
     settings = get_settings()
     try:
-        return execute_job(get_database(settings.database_url), settings, job_id, attempt,
-                           worker=self.request.hostname or socket.gethostname())
+        status = execute_job(get_database(settings.database_url, settings), settings, job_id, attempt,
+                             worker=self.request.hostname or socket.gethostname())
     except DatabaseUnavailable as exc:
         delay = min(2.0 ** min(self.request.retries, 6), settings.db_retry_max_s)
         log.warning("job %s: database unreachable (%s); delivery retried in %.0f s", job_id, exc, delay)
         raise self.retry(countdown=delay)
+    if status == REFUSED:
+        # Acknowledged and logged by Celery as "ignored", not "succeeded": execute_job logged the refusal.
+        raise Ignore()
+    return status
 
 
 @celery_app.task(name="trajlab.mc_chunk", bind=True)
 def mc_chunk(self, run_id: str, index: int, start: int, count: int, seed: int) -> bool:
     settings = get_settings()
-    return fanout.compute_chunk(redis_client(settings.broker_url), run_id, index, start, count,
+    return fanout.compute_chunk(redis_client(settings.broker_url, settings=settings), run_id, index, start, count,
                                 seed, who=self.request.hostname or socket.gethostname())

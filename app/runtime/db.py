@@ -23,17 +23,28 @@ read-only transaction bought nothing but two more round trips per request (psyco
 sends ``BEGIN`` before the first statement and the pool a ``ROLLBACK`` at check-in:
 a third of a ``GET /v1/jobs/{id}``'s time, measured with py-spy).  A write that is
 one statement (:meth:`Database.autocommit`) is atomic on its own, for the same reason.
+
+Every PostgreSQL connection of the service is bounded in time (:func:`pg_connect_args`, the settings
+``db_*``): a connect over a dead link fails after ``connect_timeout``; a statement whose packets go
+unacknowledged fails after ``tcp_user_timeout``; an idle or waiting connection whose peer vanished is
+found by TCP keepalives; a query the server runs too long is cancelled by ``statement_timeout``.
+Without them a call over a cut link waited for the kernel to give up (``tcp_retries2``: about 15
+minutes) and the worker's bounded store retry never ran.  Migrations (``migrations/env.py``) connect
+without the statement timeout.
 """
 from __future__ import annotations
 
 import threading
 import time
 from contextlib import contextmanager
-from typing import Iterator
+from typing import TYPE_CHECKING, Iterator
 
 from sqlalchemy import Connection, Engine, create_engine, event
 from sqlalchemy.exc import DisconnectionError
 from sqlalchemy.orm import Session, sessionmaker
+
+if TYPE_CHECKING:
+    from app.runtime.settings import Settings
 
 SQLITE_BUSY_TIMEOUT_MS = 30_000
 # Connections kept, one per API thread (app.api.main); MAX_OVERFLOW more for other threads/bursts.  8 per process:
@@ -45,7 +56,24 @@ MAX_OVERFLOW = 8
 PING_IDLE_S = 5.0
 
 
-def make_engine(url: str) -> Engine:
+def pg_connect_args(settings: "Settings", *, statement_timeout: bool = True) -> dict:
+    """psycopg (libpq) connection parameters that bound every call in time (module docstring)."""
+    args = {
+        "connect_timeout": int(settings.db_connect_timeout_s),
+        "keepalives": 1,
+        "keepalives_idle": int(settings.db_keepalives_idle_s),
+        "keepalives_interval": int(settings.db_keepalives_interval_s),
+        "keepalives_count": int(settings.db_keepalives_count),
+        "tcp_user_timeout": int(settings.db_tcp_user_timeout_s * 1000),
+    }
+    if statement_timeout:
+        args["options"] = f"-c statement_timeout={int(settings.db_statement_timeout_s * 1000)}"
+    return args
+
+
+def make_engine(url: str, settings: "Settings | None" = None, *, statement_timeout: bool = True) -> Engine:
+    """The engine for ``url``; on PostgreSQL with the network timeouts of ``settings`` (default: the
+    environment's)."""
     if url.startswith("sqlite"):
         engine = create_engine(url, connect_args={"check_same_thread": False, "timeout": SQLITE_BUSY_TIMEOUT_MS / 1000})
 
@@ -66,7 +94,12 @@ def make_engine(url: str) -> Engine:
             conn.exec_driver_sql("BEGIN IMMEDIATE" if immediate else "BEGIN")
 
         return engine
-    engine = create_engine(url, pool_size=POOL_SIZE, max_overflow=MAX_OVERFLOW)
+    if settings is None:
+        from app.runtime.settings import get_settings
+
+        settings = get_settings()
+    engine = create_engine(url, pool_size=POOL_SIZE, max_overflow=MAX_OVERFLOW, pool_timeout=settings.db_pool_timeout_s,
+                           connect_args=pg_connect_args(settings, statement_timeout=statement_timeout))
 
     @event.listens_for(engine, "connect")
     @event.listens_for(engine, "checkin")
@@ -92,9 +125,9 @@ def make_engine(url: str) -> Engine:
 class Database:
     """Session factory with a read path and a serialized write path."""
 
-    def __init__(self, url: str):
+    def __init__(self, url: str, settings: "Settings | None" = None):
         self.url = url
-        self.engine = make_engine(url)
+        self.engine = make_engine(url, settings)
         self.is_sqlite = self.engine.dialect.name == "sqlite"
         # PostgreSQL reads in autocommit (module docstring); the isolation level is per checkout, the
         # pool is shared, and SQLAlchemy restores it when the connection goes back
@@ -157,10 +190,11 @@ _DATABASES: dict[str, Database] = {}
 _DB_LOCK = threading.Lock()
 
 
-def get_database(url: str) -> Database:
-    """One :class:`Database` per URL per process (so the write lock is process-wide)."""
+def get_database(url: str, settings: "Settings | None" = None) -> Database:
+    """One :class:`Database` per URL per process (so the write lock is process-wide); the first caller's
+    ``settings`` (default: the environment's) give its timeouts."""
     with _DB_LOCK:
         db = _DATABASES.get(url)
         if db is None:
-            db = _DATABASES[url] = Database(url)
+            db = _DATABASES[url] = Database(url, settings)
         return db

@@ -39,6 +39,12 @@ class Settings(BaseSettings):
     # Python while PostgreSQL and the clients had the other (benchmarks/api_load.py, 2 cores).  Two, not
     # one per core: each keeps a pool of up to 16 connections (app.runtime.db) of PostgreSQL's 100 by default.
     api_workers: int = Field(default=2, ge=1, description="`trajlab api` processes (uvicorn workers) on one port")
+    log_format: Literal["text", "json"] = Field(
+        default="text", description="json: one JSON object per log line (time, level, logger, message, request_id, "
+                                    "job_id, kind, owner), for a log collector")
+    metrics_public: bool = Field(
+        default=False, description="GET /metrics without an admin key while TRAJLAB_AUTH=required (a scraper "
+                                   "on a private network)")
     access_log: bool = Field(default=False, description="`trajlab api` writes one log line per request (uvicorn's "
                                                          "access log; it costs about a tenth of a request's CPU)")
 
@@ -61,6 +67,27 @@ class Settings(BaseSettings):
     db_retry_max_s: float = Field(
         default=30.0, description="Longest backoff of a worker retrying a delivery while the database is down")
     max_attempts: int = Field(default=3, ge=1, description="Deliveries of one job before it fails with worker_lost")
+
+    # Timeouts on every network call (README "Network clients and their timeouts"): a call over a dead
+    # link fails within its bound instead of waiting for the kernel (tcp_retries2: about 15 minutes), so
+    # the worker's store retry (worker.tasks._store: up to stale_after_s) runs as written and a worker
+    # cut off from the database gives its slot up within stale_after_s + db_tcp_user_timeout_s.
+    db_connect_timeout_s: int = Field(default=5, ge=2, description="PostgreSQL: libpq connect_timeout (min. 2)")
+    db_tcp_user_timeout_s: float = Field(
+        default=10.0, gt=0, description="PostgreSQL: tcp_user_timeout, the longest data may stay unacknowledged")
+    db_keepalives_idle_s: int = Field(default=5, ge=1, description="PostgreSQL: idle seconds before a keepalive")
+    db_keepalives_interval_s: int = Field(default=2, ge=1, description="PostgreSQL: seconds between keepalives")
+    db_keepalives_count: int = Field(default=3, ge=1, description="PostgreSQL: keepalives lost before the link is dead")
+    db_statement_timeout_s: float = Field(
+        default=30.0, gt=0, description="PostgreSQL: statement_timeout of the service's own queries (migrations "
+                                        "run without it)")
+    db_pool_timeout_s: float = Field(default=10.0, gt=0, description="Wait for a pooled database connection")
+    redis_socket_timeout_s: float = Field(
+        default=5.0, gt=1, description="Redis: a command's reply (above kombu's 1 s BRPOP timeout)")
+    redis_connect_timeout_s: float = Field(default=3.0, gt=0, description="Redis: TCP connect")
+    redis_health_check_interval_s: int = Field(
+        default=10, ge=0, description="Redis: a connection idle this long is pinged before use; kombu also drops "
+                                      "a BRPOP connection overdue by this much")
 
     # Caps that keep one request from exhausting the machine.
     max_grid_intervals: int = Field(default=1000, description="reentry/robust_reentry grid.intervals cap")

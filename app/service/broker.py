@@ -65,7 +65,12 @@ def celery_config(settings: Settings) -> dict:
         worker_prefetch_multiplier=1,
         # Redis re-delivers an unacknowledged message after the visibility timeout;
         # it must exceed the longest hard time limit or a long solve would run twice.
-        broker_transport_options={"visibility_timeout": int(longest_hard_time_limit_s(settings) + 600)},
+        # The same bounded socket, keepalive and health check as the service's own client
+        # (redis_options): without a socket timeout a publish or ack over a dead link waited forever.
+        broker_transport_options={"visibility_timeout": int(longest_hard_time_limit_s(settings) + 600),
+                                  **redis_options(settings)},
+        # Celery's own bound on opening the broker connection (its AMQP-style connect and the retries).
+        broker_connection_timeout=settings.redis_connect_timeout_s,
         task_default_queue=QUEUE_JOBS,
         task_ignore_result=True,
         task_serializer="json",
@@ -84,14 +89,25 @@ def create_publisher(settings: Settings | None = None) -> Celery:
     return app
 
 
-def redis_client(broker_url: str, *, socket_timeout: float = 5.0, **kwargs):
-    """A redis-py client for the broker URL; kombu's ``redis+socket:///path`` is redis-py's unix socket."""
+def redis_options(settings: Settings) -> dict:
+    """redis-py's (and kombu's transport's) bounds on every Redis call: a reply within the socket timeout,
+    a connect within the connect timeout, an idle connection pinged before use, TCP keepalive on."""
+    return {"socket_timeout": settings.redis_socket_timeout_s,
+            "socket_connect_timeout": settings.redis_connect_timeout_s,
+            "socket_keepalive": True,
+            "health_check_interval": settings.redis_health_check_interval_s}
+
+
+def redis_client(broker_url: str, *, settings: Settings | None = None, **kwargs):
+    """A redis-py client for the broker URL with :func:`redis_options` (``kwargs`` override them);
+    kombu's ``redis+socket:///path`` is redis-py's unix socket."""
     import redis
 
+    options = {**redis_options(settings or get_settings()), **kwargs}
     if broker_url.startswith("redis+socket://"):
-        return redis.Redis(unix_socket_path=broker_url.removeprefix("redis+socket://"), socket_timeout=socket_timeout,
-                           **kwargs)
-    return redis.Redis.from_url(broker_url, socket_timeout=socket_timeout, **kwargs)
+        options.pop("socket_keepalive", None)  # a unix socket has no TCP keepalive
+        return redis.Redis(unix_socket_path=broker_url.removeprefix("redis+socket://"), **options)
+    return redis.Redis.from_url(broker_url, **options)
 
 
 RUN_JOB_TASK = "trajlab.run_job"
@@ -137,8 +153,7 @@ def _redis_publisher(broker_url: str):
         with _publishers_lock:
             client = _publishers.get(broker_url)
             if client is None:
-                client = _publishers[broker_url] = redis_client(
-                    broker_url, socket_timeout=5.0, socket_connect_timeout=2.0, retry=Retry(NoBackoff(), 1))
+                client = _publishers[broker_url] = redis_client(broker_url, retry=Retry(NoBackoff(), 1))
     return client
 
 

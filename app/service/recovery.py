@@ -71,9 +71,9 @@ class Recovery:
 
     def __init__(self, settings: Settings, db: Database | None = None):
         self.settings = settings
-        self.db = db or get_database(settings.database_url)
+        self.db = db or get_database(settings.database_url, settings)
         self.celery = create_publisher(settings)
-        self.redis = redis_client(settings.broker_url)
+        self.redis = redis_client(settings.broker_url, settings=settings)
         self._stop = threading.Event()
 
     def _publish(self, job) -> bool:
