@@ -162,26 +162,27 @@ PRESETS: dict[str, dict] = {
                        "English units (aero polynomials in alpha degrees, exponential atmosphere, spherical "
                        "non-rotating Earth; the heating rate is reported as an expression). Betts: 34.1412 "
                        "deg, tf 2008.59 s; the reentry kind's betts-max-crossrange on the same grid (100 "
-                       "intervals, linear controls, 2 RK4 steps): 34.14118 deg. Tolerance 0.01 deg.",
+                       "intervals, linear controls, 2 RK4 steps): 34.14118 deg; this preset gives 34.14118 "
+                       "deg, tf 2008.59 s. Tolerance 0.01 deg.",
         "optimum": 34.1412, "tolerance": 0.01, "params": BETTS_SHUTTLE},
     "bryson-denham": {
         "description": "Bryson-Denham problem: Bryson & Ho, Applied Optimal Control (1975), sec. 3.11: "
                        "x' = v, v' = u, x(0) = x(1) = 0, v(0) = -v(1) = 1, minimize int u^2/2 dt with the "
                        "state limit x <= l = 1/9. Analytic optimum J = 4/(9 l) = 4 (the limit is touched on "
-                       "[3l, 1 - 3l]). Tolerance 2e-3: the corners of u at t = 1/3 and 2/3 fall on nodes "
-                       "of the 90-interval grid, and the limit is held between the nodes.",
-        "optimum": 4.0, "tolerance": 2e-3, "params": BRYSON_DENHAM},
+                       "[3l, 1 - 3l]). 90 intervals give 4.0000000 (the corners of u at t = 1/3 and 2/3 "
+                       "fall on nodes, and the limit holds between the nodes too); tolerance 1e-4.",
+        "optimum": 4.0, "tolerance": 1e-4, "params": BRYSON_DENHAM},
     "goddard-rocket": {
         "description": "Goddard rocket, maximum altitude: COPS 3.0 (Dolan, More & Munson 2004) problem 10, "
                        "after Bryson, Dynamic Optimization (1999); nondimensional (h0 = m0 = g0 = 1, "
                        "Tmax = 3.5, final mass 0.6, drag 310 v^2 exp(-500 (h - 1))). Published final "
-                       "altitude 1.01283. Tolerance 1e-4: the optimum has a singular thrust arc, which "
-                       "piecewise-constant thrust on 100 intervals resolves to about 1e-5.",
+                       "altitude 1.01283. 100 intervals of piecewise-constant thrust give 1.012837 (the "
+                       "singular thrust arc resolved to about 1e-5); tolerance 1e-4.",
         "optimum": 1.01283, "tolerance": 1e-4, "params": GODDARD},
     "hang-glider": {
         "description": "Hang glider, maximum range through a thermal updraft: COPS 3.0 (Dolan, More & "
                        "Munson 2004) problem 11, after Bulirsch, Nerz, Pesch & von Stryk (1993). Published "
-                       "final range 1248.03 m. Tolerance 0.5 m: the lift-coefficient history has sharp "
-                       "turns near the thermal that 100 intervals resolve to a few tenths of a metre.",
-        "optimum": 1248.03, "tolerance": 0.5, "params": HANG_GLIDER},
+                       "final range 1248.03 m. 100 intervals give 1247.99 m (the lift-coefficient history "
+                       "turns sharply near the thermal); tolerance 0.2 m.",
+        "optimum": 1248.03, "tolerance": 0.2, "params": HANG_GLIDER},
 }
