@@ -21,15 +21,6 @@ from pathlib import Path
 log = logging.getLogger("trajlab")
 
 
-def _worker_command(settings, *, name: str) -> list[str]:
-    from app.service.broker import QUEUES
-
-    # WARNING: an idle worker logs nothing (INFO would add lines for every delivery and heartbeat).
-    return [sys.executable, "-m", "celery", "-A", "worker.celery_app:celery_app", "worker",
-            "--loglevel=WARNING", f"--concurrency={settings.worker_concurrency}", "-n", name,
-            "-Q", ",".join(QUEUES)]
-
-
 def cmd_serve(args: argparse.Namespace) -> int:
     from app.runtime import embedded
 
@@ -77,9 +68,12 @@ def cmd_serve(args: argparse.Namespace) -> int:
         if redis_child is not None:
             redis_child.on_restart = lambda: _after_redis_restart(embedded, data_dir, recovery)
         recovery.start_thread()
-        children.insert(0, embedded.Supervised(
-            "worker", _worker_command(settings, name="embedded@%h"), env=_worker_env(data_dir),
-            log_path=data_dir / "worker.log").start())
+        from app.cli.pools import worker_pools
+
+        # two pools, one reserved for quick jobs (app.cli.pools), both logging to worker.log
+        for pool, cmd in worker_pools(settings, name="embedded@%h").items():
+            children.insert(0, embedded.Supervised(pool, cmd, env=_worker_env(data_dir),
+                                                   log_path=data_dir / "worker.log").start())
         import uvicorn
 
         print(f"\ntrajlab is running\n  console   http://{args.host}:{args.port}/\n"
@@ -127,9 +121,28 @@ def cmd_recover(args: argparse.Namespace) -> int:
     return 0
 
 
+def _http_metrics_dir() -> None:
+    """prometheus-client's multiprocess mode for the API's processes (app.api.observability): a directory
+    they all write to, chosen before any of them imports the library; emptied at start (counters restart,
+    as Prometheus expects of a restarted target) and a temporary one removed at exit."""
+    import atexit
+    import shutil
+    import tempfile
+
+    path = os.environ.get("PROMETHEUS_MULTIPROC_DIR")
+    if path:
+        for stale in Path(path).glob("*.db"):
+            stale.unlink()
+        return
+    path = tempfile.mkdtemp(prefix="trajlab-metrics-")
+    os.environ["PROMETHEUS_MULTIPROC_DIR"] = path
+    atexit.register(shutil.rmtree, path, ignore_errors=True)
+
+
 def cmd_api(args: argparse.Namespace) -> int:
     import uvicorn
 
+    from app.runtime import logs
     from app.runtime.settings import get_settings
 
     settings = get_settings()
@@ -137,6 +150,8 @@ def cmd_api(args: argparse.Namespace) -> int:
     # each on a listening socket of its own (app.runtime.serving: a shared one left one process with most connections)
     options = dict(factory=True, host=args.host, port=args.port, loop="uvloop", http="httptools",
                    workers=settings.api_workers, access_log=settings.access_log)
+    options["log_config"] = logs.dict_config(settings.log_format)  # applied in each process
+    _http_metrics_dir()
     if settings.api_workers == 1:
         uvicorn.run("app.api.main:create_app", **options)
         return 0
@@ -147,11 +162,14 @@ def cmd_api(args: argparse.Namespace) -> int:
 
 
 def cmd_worker(args: argparse.Namespace) -> int:
+    from app.cli.pools import run_pools, worker_pools
     from app.runtime.settings import get_settings
 
-    cmd = _worker_command(get_settings(), name=args.name)
-    os.execv(cmd[0], cmd)
-    return 0  # not reached
+    pools = worker_pools(get_settings(), name=args.name, queues=args.queues, loglevel=args.loglevel)
+    if len(pools) == 1:
+        cmd = next(iter(pools.values()))
+        os.execv(cmd[0], cmd)
+    return run_pools(pools)
 
 
 def cmd_migrate(args: argparse.Namespace) -> int:
@@ -163,7 +181,10 @@ def cmd_migrate(args: argparse.Namespace) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s %(message)s")
+    from app.runtime import logs
+
+    # read here, not through Settings: the client commands run without a service's settings
+    logs.configure("json" if os.environ.get("TRAJLAB_LOG_FORMAT", "").lower() == "json" else "text")
     parser = argparse.ArgumentParser(prog="trajlab", description=__doc__.split("\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
     for name, fn, help_ in (("serve", cmd_serve, "embedded all-in-one: Redis, worker and API"),
@@ -174,6 +195,10 @@ def main(argv: list[str] | None = None) -> int:
         p.set_defaults(fn=fn)
     p = sub.add_parser("worker", help="a Celery worker (production)")
     p.add_argument("--name", default="worker@%h")
+    p.add_argument("--queues", choices=("both", "jobs", "heavy"), default="both",
+                   help="both: two pools, TRAJLAB_QUICK_CONCURRENCY processes reserved for quick jobs and "
+                        "TRAJLAB_WORKER_CONCURRENCY for heavy and quick ones; jobs or heavy: one pool on that queue")
+    p.add_argument("--loglevel", default="WARNING", help="Celery's log level (INFO: a line per delivery)")
     p.set_defaults(fn=cmd_worker)
     p = sub.add_parser("recover", help="the recovery loop: reaper and re-publisher (one per deployment)")
     p.set_defaults(fn=cmd_recover)

@@ -31,12 +31,17 @@ log = logging.getLogger("trajlab")
 PR_SET_PDEATHSIG = 1
 
 
-def _die_with_parent() -> None:  # runs in the child between fork and exec
-    os.setsid()  # its own process group: stopped as a whole
+def exit_with_parent() -> None:  # runs in the child between fork and exec
+    """``PR_SET_PDEATHSIG``: the kernel sends this child SIGTERM when its parent dies, even by SIGKILL."""
     try:
         ctypes.CDLL("libc.so.6", use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
     except OSError:
         pass  # not Linux: the finally of serve still stops the children on a normal exit
+
+
+def _die_with_parent() -> None:  # runs in the child between fork and exec
+    os.setsid()  # its own process group: stopped as a whole
+    exit_with_parent()
 
 
 def port_in_use(host: str, port: int) -> bool:

@@ -34,7 +34,10 @@ class Settings(BaseSettings):
         description="Celery broker: redis://host:port/db or redis+socket:///path/redis.socket",
     )
     data_dir: Path = Field(default=DEFAULT_DATA_DIR, description="Embedded mode: SQLite file, Redis socket, logs")
-    worker_concurrency: int = Field(default=1, ge=1, description="Solver processes per worker")
+    worker_concurrency: int = Field(default=1, ge=1, description="Solver processes per worker (heavy and quick jobs)")
+    quick_concurrency: int = Field(
+        default=1, ge=0, description="Solver processes a worker started for both queues reserves for quick jobs "
+                                     "(app.cli.pools); 0: one pool for both, which heavy jobs can fill")
     # One process serves at most one core (the GIL): on PostgreSQL a single process spent its core on
     # Python while PostgreSQL and the clients had the other (benchmarks/api_load.py, 2 cores).  Two, not
     # one per core: each keeps a pool of up to 16 connections (app.runtime.db) of PostgreSQL's 100 by default.

@@ -14,7 +14,6 @@ from pathlib import Path
 import pytest
 from fastapi.testclient import TestClient
 
-from app.service.broker import QUEUES
 from app.api.main import create_app
 from app.runtime.migrate import upgrade
 from app.runtime.settings import Settings
@@ -42,15 +41,19 @@ class Stack:
         self.procs: dict[str, subprocess.Popen] = {}
         self._n = 0
 
-    def _spawn(self, name: str, cmd: list[str]) -> None:
-        self.procs[name] = subprocess.Popen(cmd, cwd=ROOT, env=self.env, stdout=open(self.tmp / f"{name}.log", "ab"),
+    def _spawn(self, name: str, cmd: list[str], env: dict | None = None) -> None:
+        self.procs[name] = subprocess.Popen(cmd, cwd=ROOT, env={**self.env, **(env or {})},
+                                            stdout=open(self.tmp / f"{name}.log", "ab"),
                                             stderr=subprocess.STDOUT, start_new_session=True)
 
-    def start_worker(self, concurrency: int = 2) -> None:
+    def start_worker(self, concurrency: int = 2, *, name: str = "worker", env: dict | None = None,
+                     prefix: tuple[str, ...] = ()) -> None:
+        """``trajlab worker`` as an operator starts it: a pool of ``concurrency`` for both queues and one
+        process reserved for quick jobs (app.cli.pools); ``prefix`` runs it elsewhere (``ip netns exec``)."""
         self._n += 1
-        self._spawn("worker", [sys.executable, "-m", "celery", "-A", "worker.celery_app:celery_app", "worker",
-                               "--loglevel=INFO", f"--concurrency={concurrency}", "-n", f"fault{self._n}@%h",
-                               "-Q", ",".join(QUEUES)])
+        self._spawn(name, [*prefix, sys.executable, "-m", "app.cli.commands", "worker", "--loglevel=INFO",
+                           "--name", f"fault{self._n}@%h"],
+                    env={"TRAJLAB_WORKER_CONCURRENCY": str(concurrency), "TRAJLAB_QUICK_CONCURRENCY": "1", **(env or {})})
 
     def start_recovery(self) -> None:
         self._spawn("recover", [sys.executable, "-m", "app.cli.commands", "recover"])

@@ -89,8 +89,9 @@ def test_worker_sigkilled_with_a_backlog(stack):
     report("worker-sigkill", accepted=len(accepted), finished=len(accepted) - len(lost), lost=len(lost),
            reran_after_kill=sum(jobs[j]["attempts"] > 1 for j in accepted if j in jobs), recovery_s=recovery_s)
     assert not lost and results_once
-    # only jobs that were running when the worker died may run again (a new attempt token each)
-    assert sum(jobs[j]["attempts"] > 1 for j in accepted) <= 2
+    # only jobs that were running when the worker died may run again (a new attempt token each): at most
+    # one per slot, the pool's 2 and the one reserved for quick jobs
+    assert sum(jobs[j]["attempts"] > 1 for j in accepted) <= 3
     assert recovery_s < 180
 
 

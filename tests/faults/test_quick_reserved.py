@@ -1,0 +1,48 @@
+"""Issue 30: queues that cannot starve.  A worker started for both queues (``trajlab worker``) keeps a
+process for quick jobs, so a quick job finishes while every heavy slot is busy and more heavy work waits."""
+from __future__ import annotations
+
+import time
+
+import pytest
+
+from tests.faults.conftest import QUICK, report
+
+pytestmark = [pytest.mark.integration, pytest.mark.faults]
+
+# A reentry solve on the largest grid allowed: long enough to hold its slot while the quick jobs run
+# (it is cancelled at the end), and above the heavy cost this test sets, so it goes to the heavy queue.
+HEAVY = {"kind": "reentry", "params": {"grid": {"intervals": 1000}}}
+
+
+def _wait(stack, job_id: str, statuses: tuple[str, ...], timeout: float) -> dict:
+    deadline = time.monotonic() + timeout
+    while True:
+        job = stack.client.get(f"/v1/jobs/{job_id}").json()
+        if job["status"] in statuses or time.monotonic() > deadline:
+            return job
+        time.sleep(0.2)
+
+
+def test_a_quick_job_finishes_while_every_heavy_slot_is_busy(stack):
+    stack.settings.heavy_cost = 1000.0  # the API's settings: reentry at 1000 intervals (cost 2000) is heavy
+    stack.start_worker(concurrency=1)  # one slot for heavy and quick jobs, one reserved for quick ones
+    heavy = []
+    for _ in range(2):
+        r = stack.submit(HEAVY)
+        assert r.status_code == 202, r.text
+        heavy.append(r.json()["id"])
+    assert _wait(stack, heavy[0], ("running",), 90)["status"] == "running"
+    t0 = time.monotonic()
+    quick = [stack.submit().json()["id"] for _ in range(3)]
+    jobs, waited_s = stack.wait_final(quick, timeout=90)
+    during = stack.statuses(heavy)
+    report("quick-reserved", quick_succeeded=sum(j["status"] == "succeeded" for j in jobs.values()),
+           heavy_states="/".join(during[h]["status"] for h in heavy), quick_done_s=time.monotonic() - t0)
+    assert all(jobs[q]["status"] == "succeeded" for q in quick), [jobs[q]["status"] for q in quick]
+    # every heavy slot was busy the whole time, and heavy work was still waiting for one
+    assert [during[h]["status"] for h in heavy] == ["running", "queued"], during
+    for h in heavy:
+        stack.client.post(f"/v1/jobs/{h}/cancel")
+    assert all(_wait(stack, h, ("cancelled", "failed", "succeeded"), 60)["status"] == "cancelled" for h in heavy)
+    assert waited_s < 90
