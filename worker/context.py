@@ -48,7 +48,8 @@ class WorkerJobContext:
 
     def load_result(self, job_id: str) -> dict:
         job = jobs.get_job(self.db, job_id)
-        if job is None:
+        if job is None or not self._may_read(job):
+            # another owner's job reads as one that does not exist, as it does over HTTP
             raise LookupError(f"job {job_id} does not exist")
         if job.status != "succeeded":
             raise LookupError(f"job {job_id} is {job.status}; only a succeeded job can be used")
@@ -56,6 +57,12 @@ class WorkerJobContext:
         if result is None:
             raise LookupError(f"job {job_id} has no stored result")
         return result
+
+    def _may_read(self, job) -> bool:
+        """Owners are kept apart in warm starts too: a job reads only its own owner's results
+        (with auth off every job's owner is None, and every job is everyone's)."""
+        own = jobs.get_job(self.db, self.job_id)
+        return own is None or own.owner is None or job.owner == own.owner
 
     def run_monte_carlo(self, spec: dict, samples: int, seed: int, chunk_size: int | None = None) -> dict:
         """Monte Carlo of a JSON spec; above ``monte_carlo_chunk_samples`` split across the workers."""

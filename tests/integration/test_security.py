@@ -212,3 +212,16 @@ def test_studies_are_isolated_between_owners(secure):
     for row in rows:  # the points are alice's jobs
         assert secure.client.get(f"/v1/jobs/{row['job_id']}", headers=secure.h("bob")).status_code == 404
         assert secure.client.get(f"/v1/jobs/{row['job_id']}", headers=secure.h("alice")).status_code == 200
+
+
+def test_a_warm_start_never_reads_another_owners_result(secure):
+    brach = {"kind": "ocp", "preset": "brachistochrone"}
+    own = secure.submit("alice", brach).json()
+    assert secure.wait("alice", own["id"], ("succeeded", "failed"), timeout=120)["status"] == "succeeded"
+    # bob names alice's job: it reads as a job that does not exist, and nothing of alice's is used
+    theirs = secure.submit("bob", {**brach, "params": {"guess": {"from_job": own["id"]}}}).json()
+    done = secure.wait("bob", theirs["id"], ("succeeded", "failed"), timeout=120)
+    assert done["status"] == "failed" and f"job {own['id']} does not exist" in done["error"]["message"], done
+    # alice's own warm start from it works
+    mine = secure.submit("alice", {**brach, "params": {"guess": {"from_job": own["id"]}}}).json()
+    assert secure.wait("alice", mine["id"], ("succeeded", "failed"), timeout=120)["status"] == "succeeded"
