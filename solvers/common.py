@@ -26,6 +26,7 @@ class Outcome(str, Enum):
     NOT_CONVERGED = "not_converged"  # iteration/time budget exhausted, or diverged
     CANCELLED = "cancelled"          # should_stop() answered True
     LIMIT_NOT_HELD = "limit_not_held"  # converged, but a path limit is exceeded between the nodes
+    TERMINAL_NOT_HELD = "terminal_not_held"  # converged, but the re-propagation misses a final value
     FAILED = "failed"                # anything else (bad problem data detected late, numerical error)
 
 

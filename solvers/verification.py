@@ -60,6 +60,9 @@ class Verification:
     # Per limited path quantity: limit, worst dense value and its time, excess, held (within the
     # tolerance); filled by the caller that knows the limits (solvers.reentry.limits.limit_checks).
     limits: dict[str, dict] = field(default_factory=dict)
+    # Per fixed terminal component: requested, reached, miss, tolerance, held (filled by the caller
+    # that knows the terminal conditions: solvers.reentry.terminal.terminal_checks).
+    terminal: dict[str, dict] = field(default_factory=dict)
 
     def interval_max(self, name: str, intervals: int) -> np.ndarray:
         """Worst value of path quantity ``name`` on each shooting interval, both ends included

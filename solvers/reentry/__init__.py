@@ -14,6 +14,7 @@ from solvers.lazy import lazy_exports
 _EXPORTS = {
     **dict.fromkeys(("OBJECTIVES", "T_SCALE", "HEAT_LOAD_SCALE", "Terminal", "ReentryProblem",
                      "ReentrySolution"), "problem"),
+    "TerminalTolerance": "terminal",
     **dict.fromkeys(("solve", "param_vector", "shooting_problem", "state_bounds", "objective_value",
                      "path_quantities"), "solver"),
     **dict.fromkeys(("InitialGuess", "linear_guess", "on_grid", "rhs_numpy", "simulate_constant_controls"),
@@ -26,5 +27,6 @@ if TYPE_CHECKING:  # the same names, for readers, type checkers and import-graph
     from solvers.reentry.guess import InitialGuess, linear_guess, on_grid, rhs_numpy, simulate_constant_controls
     from solvers.reentry.problem import (HEAT_LOAD_SCALE, OBJECTIVES, T_SCALE, ReentryProblem, ReentrySolution,
                                          Terminal)
+    from solvers.reentry.terminal import TerminalTolerance
     from solvers.reentry.solver import (objective_value, param_vector, path_quantities, shooting_problem,
                                         solve, state_bounds)

@@ -13,6 +13,7 @@ import numpy as np
 from solvers.common import SolveStatus
 from solvers.models import shuttle as sh
 from solvers.models.reentry_state import STATE_NAMES, Trajectory
+from solvers.reentry.terminal import TerminalTolerance
 from solvers.verification import Verification
 
 OBJECTIVES = ("max_crossrange", "max_downrange", "max_great_circle_range", "min_heat_load",
@@ -70,6 +71,11 @@ class ReentryProblem:
     limit_tolerance: float | None = 1e-3     # None: report the dense maximum only, never fail
     limit_rounds: int = 6
     verify_samples: int = 20
+    # Terminal conditions that hold (solvers.reentry.terminal): the re-propagated final state must
+    # meet every fixed terminal value to ``terminal_tolerance``; up to ``terminal_rounds`` warm
+    # re-solves with more substeps, else ``terminal_not_held``.  None: report the miss, never fail.
+    terminal_tolerance: TerminalTolerance | None = field(default_factory=TerminalTolerance)
+    terminal_rounds: int = 3
     ipopt: dict = field(default_factory=dict)
 
     def __post_init__(self):

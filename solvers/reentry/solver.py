@@ -16,6 +16,7 @@ Objectives (all in SI/radians, minimized internally):
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import time
 
@@ -32,6 +33,7 @@ from solvers.transcription.multiple_shooting import (PathConstraint, ShootingPro
                                                       control_at)
 from solvers.reentry.guess import InitialGuess, linear_guess, on_grid, simulate_constant_controls
 from solvers.reentry.limits import hold_problem_limits, limit_checks, path_limits
+from solvers.reentry import terminal as term
 from solvers.reentry.problem import HEAT_LOAD_SCALE, T_SCALE, ReentryProblem, ReentrySolution
 from solvers.verification import Verification, propagate_dense
 
@@ -234,17 +236,33 @@ def solve(problem: ReentryProblem, *, initial_guess: InitialGuess | str | None =
         # From a converged neighbour the adaptive barrier update restarts far from the boundary
         # (136 iterations on the heat-limited case); a small fixed barrier keeps the warm start
         # (20 iterations).
-        problem = dataclasses.replace(problem, ipopt={"mu_strategy": "monotone", "mu_init": 1e-3,
-                                                      **problem.ipopt})
+        problem = dataclasses.replace(problem, ipopt={**WARM_IPOPT, **problem.ipopt})
+    timer = {"s": 0.0, "build": build_time}
+    run = functools.partial(_solve_held, p=p, bounds=(x_lb, x_ub, u_lb, u_ub), stages=stages, timer=timer,
+                            on_progress=on_progress, should_stop=should_stop)
+    tr, res, ver, report = run(problem, on_grid(guess, m, problem.control), "full problem", spans[-1])
+    terminal = None
+    if ver is not None:
+        problem, tr, res, ver, report, terminal = _hold_terminal(problem, tr, res, ver, report, run)
+    return _solution(problem, tr, res, timer["build"], notes, stages, ver=ver, report=report,
+                     terminal=terminal, verification_time_s=timer["s"])
+
+
+WARM_IPOPT = {"mu_strategy": "monotone", "mu_init": 1e-3}
+
+
+def _solve_held(problem, guess, stage, span, *, p, bounds, stages, timer, on_progress, should_stop):
+    """One solve of ``problem`` from ``guess`` (on its grid), verified and its path limits held:
+    ``(transcription, result, verification or None, limit report or None)``."""
+    x_lb, x_ub, u_lb, u_ub = bounds
     tr = Transcription(shooting_problem(problem))
-    build_time += 0.0 if tr.was_cached else tr.solver.build_time_s
-    res = tr.solve(p=p, x_lb=x_lb, x_ub=x_ub, u_lb=u_lb, u_ub=u_ub,
-                   tf_bounds=problem.tf_bounds_s, guess=on_grid(guess, m, problem.control),
-                   on_progress=on_progress, should_stop=should_stop, progress_span=spans[-1],
+    timer["build"] += 0.0 if tr.was_cached else tr.solver.build_time_s
+    res = tr.solve(p=p, x_lb=x_lb, x_ub=x_ub, u_lb=u_lb, u_ub=u_ub, tf_bounds=problem.tf_bounds_s,
+                   guess=guess, on_progress=on_progress, should_stop=should_stop, progress_span=span,
                    expected_iterations=40)
-    stages.append({"stage": "full problem", "status": res.status.solver_status,
+    stages.append({"stage": stage, "status": res.status.solver_status,
                    "iterations": res.status.iterations, "solve_time_s": res.status.solve_time_s})
-    ver, report, timer = None, None, {"s": 0.0}
+    ver, report = None, None
     if problem.verify and res.status.outcome is Outcome.OPTIMAL:
         def verify(r):
             t0 = time.perf_counter()
@@ -255,16 +273,42 @@ def solve(problem: ReentryProblem, *, initial_guess: InitialGuess | str | None =
         limits = path_limits(problem)
         if limits and problem.limit_tolerance is None:
             ver.limits = limit_checks(ver, limits, 0.0)     # report only
-            notes += [f"{q} is enforced at the {problem.path_enforcement}; between them the "
-                      f"re-propagated trajectory exceeds its limit by {100 * c['excess']:.2f}% "
-                      f"(worst {c['max']:.6g})" for q, c in ver.limits.items() if not c["held"]]
         elif limits:
             res, ver, report = hold_problem_limits(
                 problem, tr, res, ver, p=p, param_vector=param_vector, limits=limits, verify=verify,
-                bounds=(x_lb, x_ub, u_lb, u_ub), stages=stages, on_progress=on_progress,
-                should_stop=should_stop)
-    return _solution(problem, tr, res, build_time, notes, stages, ver=ver, report=report,
-                     verification_time_s=timer["s"])
+                bounds=bounds, stages=stages, on_progress=on_progress, should_stop=should_stop)
+    return tr, res, ver, report
+
+
+def _hold_terminal(problem, tr, res, ver, report, run):
+    """Terminal conditions that hold (:mod:`solvers.reentry.terminal`): re-solve with more substeps,
+    warm from the previous answer on the same grid, until the re-propagated final state meets every
+    requested value; returns the best round's ``(problem, tr, res, ver, report, rounds)``."""
+    requested = problem.terminal.as_array()
+    tol = problem.terminal_tolerance or term.TerminalTolerance()
+    ver.terminal = term.terminal_checks(requested, ver, tol)
+    rounds = [term.round_record(problem.substeps, ver.terminal)]
+    limits_ok = report is None or report.held
+    if problem.terminal_tolerance is None or not limits_ok:
+        # Report only; an answer whose path limits fail has failed already (limit_not_held).
+        return problem, tr, res, ver, report, rounds
+    best = (not limits_ok, rounds[0]["worst_ratio"], problem, tr, res, ver, report)
+    while rounds[-1]["worst_ratio"] > 1.0 and len(rounds) <= problem.terminal_rounds:
+        n = term.next_substeps(problem.substeps, rounds[-1]["worst_ratio"])
+        if n == problem.substeps:
+            break
+        problem = dataclasses.replace(problem, substeps=n, ipopt={**WARM_IPOPT, **problem.ipopt})
+        guess = (res.tf, res.x, res.u)
+        tr, res, ver, report = run(problem, guess, f"terminal round {len(rounds)} ({n} substeps)", (0.95, 0.99))
+        if ver is None:
+            break
+        ver.terminal = term.terminal_checks(requested, ver, tol)
+        rounds.append(term.round_record(n, ver.terminal))
+        cand = (not (report is None or report.held), rounds[-1]["worst_ratio"], problem, tr, res, ver, report)
+        if cand[:2] <= best[:2]:
+            best = cand
+    _, _, problem, tr, res, ver, report = best
+    return problem, tr, res, ver, report, rounds
 
 
 def _verify(problem: ReentryProblem, tr: Transcription, res, p) -> Verification:
@@ -280,7 +324,7 @@ def _u_at_nodes(t, u, control):
     return control_at(t, t, u, control)
 
 
-def _solution(problem, tr, res, build_time, notes, stages, *, ver=None, report=None,
+def _solution(problem, tr, res, build_time, notes, stages, *, ver=None, report=None, terminal=None,
               verification_time_s=0.0) -> ReentrySolution:
     st = res.status
     total_iter = sum(s["iterations"] for s in stages)
@@ -297,6 +341,10 @@ def _solution(problem, tr, res, build_time, notes, stages, *, ver=None, report=N
     value, unit = objective_value(problem, res.tf, res.x, u_nodes, res.t)
     if ver is not None:
         status.details["verification_time_s"] = verification_time_s
+    if ver is not None and report is None and problem.limit_tolerance is None:
+        notes += [f"{q} is enforced at the {problem.path_enforcement}; between them the "
+                  f"re-propagated trajectory exceeds its limit by {100 * c['excess']:.2f}% "
+                  f"(worst {c['max']:.6g})" for q, c in ver.limits.items() if not c["held"]]
     if report is not None:
         status.details["limit_rounds"] = report.rounds
         notes.append(f"the path limits are enforced at the {problem.path_enforcement} of the NLP; "
@@ -312,7 +360,25 @@ def _solution(problem, tr, res, build_time, notes, stages, *, ver=None, report=N
                 f"t = {c['max_t_s']:.1f} s" for q, c in bad.items())
                 + f" after {len(report.rounds) - 1} tightening round(s) (limit_rounds "
                 f"{problem.limit_rounds}); the best answer is stored as the diagnostic")
+    if terminal is not None:
+        _terminal_verdict(problem, status, ver, terminal, notes)
     return ReentrySolution(status=status, objective_name=problem.objective, objective_value=value,
                            objective_unit=unit, tf_s=res.tf, t=res.t, x=res.x, u=res.u, u_nodes_at_t=u_nodes,
                            heat_rate=np.asarray(q, float), verification=ver, notes=notes,
                            stages=stages)
+
+
+def _terminal_verdict(problem, status, ver, rounds, notes) -> None:
+    """Note the terminal check and fail an otherwise optimal answer that misses a requested final value."""
+    status.details["terminal_rounds"] = rounds
+    if not ver.terminal:
+        return
+    notes.append(f"the NLP integrates with {problem.substeps} RK4 substeps per interval; "
+                 + term.summary(ver.terminal, rounds))
+    missed = not all(c["held"] for c in ver.terminal.values())
+    if status.outcome is Outcome.OPTIMAL and missed and problem.terminal_tolerance is not None:
+        status.outcome = Outcome.TERMINAL_NOT_HELD
+        status.message = ("terminal conditions not held on the dense re-propagation: "
+                          + term.summary(ver.terminal, rounds).split("miss: ", 1)[1]
+                          + f" after {len(rounds) - 1} refinement round(s) (terminal_rounds "
+                          f"{problem.terminal_rounds}); the best answer is stored as the diagnostic")

@@ -292,3 +292,18 @@ def test_verification_reports_the_smallest_radius_and_the_planet():
                                  scan=ScanSettings(exclude_through_planet=False)))
     assert sol.finite_thrust.verification["through_planet"] is True
     assert sol.finite_thrust.verification["min_radius_m"] < 6378137.0
+
+
+def test_cheapest_impulse_above_the_propellant_on_board_is_infeasible():
+    # Issue 25: a cheapest admissible impulse of 682 kg with 600 kg on board (774 kg wet at tf = 6000 s)
+    # ends infeasible, whatever IPOPT's iterates do on this CPU (the impulsive bound decides).
+    from solvers.intercept import solve
+
+    sn = replace(PAPER_003, tf_s=6000.0, mass_kg=774.0, propellant_kg=600.0)
+    sol = solve(InterceptProblem(sn, methods=("impulsive", "finite_thrust")))
+    assert sol.impulsive.status.outcome is Outcome.INFEASIBLE
+    assert sol.impulsive.fuel_kg == pytest.approx(682.2, abs=0.5)
+    ft = sol.finite_thrust
+    assert ft.status.outcome is Outcome.INFEASIBLE, ft.status
+    assert ft.status.solver_status == "insufficient_propellant" and "600 kg of propellant" in ft.status.message
+    assert sol.status.outcome is Outcome.INFEASIBLE

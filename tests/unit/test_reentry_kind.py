@@ -109,7 +109,8 @@ def test_warm_start_from_stored_result(betts):
     warm = run(p, ctx)
     assert warm.status == "succeeded"
     assert warm.result["final"]["latitude_deg"] == pytest.approx(34.1412, abs=2e-3)
-    assert warm.result["solver"]["iterations"] <= 15
+    # the warm solve itself; a terminal refinement round may follow at 60 intervals (issue 25)
+    assert warm.result["solver"]["stages"][0]["iterations"] <= 15
     assert any("job-1" in n for n in warm.result["notes"])
 
 

@@ -58,7 +58,7 @@ def test_warm_start_from_previous_arrays_converges_fast(crossrange):
     s2 = solve(ReentryProblem(intervals=50), initial_guess=guess)
     assert s2.status.outcome is Outcome.OPTIMAL
     assert s2.objective_value / DEG == pytest.approx(34.1412, abs=2e-3)
-    assert s2.status.iterations <= 15
+    assert s2.stages[0]["iterations"] <= 15     # the warm solve; a terminal round may follow (issue 25)
 
 
 LIMIT = sh.BETTS_HEAT_LIMIT_W_M2

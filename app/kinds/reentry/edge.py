@@ -45,6 +45,10 @@ def to_problem(params: ReentryParams):
         max_load_factor=params.path.max_load_factor,
         path_enforcement=params.path.enforcement, limit_tolerance=params.path.limit_tolerance,
         limit_rounds=params.path.limit_rounds,
+        terminal_tolerance=rs.TerminalTolerance(altitude_m=params.terminal_check.altitude_m,
+                                                speed_mps=params.terminal_check.speed_mps,
+                                                angle_rad=math.radians(params.terminal_check.angle_deg)),
+        terminal_rounds=params.terminal_check.rounds,
         intervals=params.grid.intervals, control=params.grid.control, substeps=params.grid.substeps)
 
 
@@ -180,6 +184,7 @@ def verification_block(ver, *, node_heat_rate, time_s: float) -> dict | None:
             out[f"error_estimate_{name.rsplit('_', 1)[0]}_{unit}"] = json_float(
                 c.to_api(ver.error_estimate[STATE_INDEX[name]]))
     out.update(limits_block(ver.limits))
+    out.update(terminal_block(ver.terminal))
     out["trajectory"] = _dense_trajectory(ver)
     return out
 
@@ -194,6 +199,21 @@ def limits_block(limits: dict) -> dict:
                  "tolerance_percent": json_float(100 * c["tolerance"]), "held": bool(c["held"])}
              for q, c in limits.items()}
     return {"limits": block, "limits_held": all(c["held"] for c in block.values())}
+
+
+def terminal_block(terminal: dict) -> dict:
+    """Terminal conditions that hold: per requested final value (API name and unit), the requested and
+    re-propagated values, the miss and its tolerance; ``terminal_held`` over all (null: none requested)."""
+    if not terminal:
+        return {"terminal": {}, "terminal_held": None}
+    block = {}
+    for name, c in terminal.items():
+        comp = STATES[STATE_INDEX[name]]
+        block[comp.api_name] = {k: json_float(comp.to_api(c[k])) for k in ("requested", "reached", "miss",
+                                                                          "tolerance", "error_estimate")
+                                if c[k] is not None}
+        block[comp.api_name]["held"] = bool(c["held"])
+    return {"terminal": block, "terminal_held": all(c["held"] for c in block.values())}
 
 
 def result_blocks(*, trajectory: Trajectory, tf_s: float, status, stages: list[dict], notes: list[str],

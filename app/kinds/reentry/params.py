@@ -83,6 +83,18 @@ class ReentryPathLimits(StrictModel):
                               "limit_not_held and stores the best answer", examples=[6])
 
 
+class ReentryTerminalCheck(StrictModel):
+    altitude_m: float = Field(1.0, gt=0, description="Terminal conditions that hold: the dense "
+                              "re-propagation's final altitude may miss the requested one by this much",
+                              examples=[1.0])
+    speed_mps: float = Field(0.01, gt=0, description="Same for the final speed", examples=[0.01])
+    angle_deg: float = Field(0.001, gt=0, description="Same for the final angles (flight path, latitude, "
+                             "longitude, heading)", examples=[0.001])
+    rounds: int = Field(3, ge=0, le=6, description="Warm-started re-solves with more RK4 substeps when a "
+                        "final value is missed; if it is still missed, the job fails with code "
+                        "terminal_not_held and stores the best answer", examples=[3])
+
+
 class ReentryTerminal(StrictModel):
     altitude_m: float | None = Field(sh.BETTS_TERMINAL["altitude_m"], ge=0, description="Final altitude (null: free)",
                                      examples=[24384.0])
@@ -177,6 +189,8 @@ class ReentryParams(StrictModel):
     grid: ReentryGrid = Field(default_factory=ReentryGrid, description="Shooting grid")
     path: ReentryPathLimits = Field(default_factory=ReentryPathLimits, description="Path limits")
     terminal: ReentryTerminal = Field(default_factory=ReentryTerminal, description="Terminal equalities")
+    terminal_check: ReentryTerminalCheck = Field(default_factory=ReentryTerminalCheck, description="How "
+                                                 "closely the re-propagated final state must meet `terminal`")
     initial_state: ReentryInitialState = Field(default_factory=ReentryInitialState, description="Entry state")
     vehicle: ReentryVehicle = Field(default_factory=ReentryVehicle, description="Vehicle")
     bounds: ReentryControlBounds = Field(default_factory=ReentryControlBounds, description="Control bounds")

@@ -91,6 +91,17 @@ class ReentryResultLimitCheck(ResultModel):
     held: bool = Field(description="The worst value is within the tolerance of the limit")
 
 
+class ReentryResultTerminalCheck(ResultModel):
+    """One requested final value checked on the dense re-propagation (terminal conditions that hold)."""
+
+    requested: Num = Field(description="The requested final value (m, m/s or deg)")
+    reached: Num = Field(description="Where the re-propagated controls end (same unit)")
+    miss: Num = Field(description="reached - requested (same unit)")
+    tolerance: Num = Field(description="The largest |miss| that counts as held (terminal_check)")
+    error_estimate: Num = Field(None, description="The re-propagation's own step-doubling error estimate there")
+    held: bool = Field(description="|miss| <= tolerance")
+
+
 class ReentryResultVerification(ResultModel):
     """The optimal controls re-propagated with an accurate integrator, independent of the transcription."""
 
@@ -119,6 +130,11 @@ class ReentryResultVerification(ResultModel):
         "worst dense value, limit, held")
     limits_held: bool | None = Field(None, description="Every path limit held on the dense grid "
                                      "(null: no limit set)")
+    terminal: dict[str, ReentryResultTerminalCheck] | None = Field(
+        None, description="Per requested final value (altitude_m, speed_mps, flight_path_deg, ...): "
+        "requested, re-propagated, miss, tolerance, held")
+    terminal_held: bool | None = Field(None, description="Every requested final value met on the dense "
+                                       "re-propagation within its tolerance (null: none requested)")
     ok: bool = Field(description="The integrator reached the final time")
     message: str = Field(description="The integrator's message (empty when ok)")
     time_s: Num = Field(description="Wall time of the verification (s)")
