@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # What the test suite needs beyond the Python packages, made present or named: the machine's
 # PostgreSQL (127.0.0.1:5432) and Redis (127.0.0.1:6379) running, and Debian's Chromium for the
-# browser tests (Playwright cannot download its own browser here).  `make test` and `.ci/run`
+# browser tests (Playwright cannot download its own browser here), and Debian's prometheus (prometheus,
+# promtool) for the metrics tests.  `make test` and `.ci/run`
 # both go through this script, so the README's `make test` is the whole set-up on a fresh machine.
 # A part that cannot be made present stops the run with one line naming it and how to get it:
 # the suite never skips a test for a missing tool.
@@ -38,5 +39,11 @@ if ! command -v chromium >/dev/null 2>&1; then
   { as_root apt-get update -q && DEBIAN_FRONTEND=noninteractive as_root apt-get install -y -q chromium; } >/dev/null 2>&1
   command -v chromium >/dev/null 2>&1 \
     || fail "Chromium is missing and could not be installed; run 'sudo apt-get install chromium' (the browser tests drive /usr/bin/chromium)"
+fi
+if ! command -v prometheus >/dev/null 2>&1 || ! command -v promtool >/dev/null 2>&1; then
+  echo "make test: installing Debian's prometheus for the metrics tests (apt-get install prometheus)" >&2
+  { as_root apt-get update -q && DEBIAN_FRONTEND=noninteractive as_root apt-get install -y -q prometheus; } >/dev/null 2>&1
+  command -v prometheus >/dev/null 2>&1 && command -v promtool >/dev/null 2>&1 \
+    || fail "Prometheus is missing and could not be installed; run 'sudo apt-get install prometheus' (the metrics tests start /usr/bin/prometheus and run promtool)"
 fi
 exit 0

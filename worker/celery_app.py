@@ -8,8 +8,10 @@ Recovery (the reaper and the re-publisher) is not scheduled here: it runs in
 """
 from __future__ import annotations
 
-from celery import Celery
+from celery import Celery, signals
 
+from app.runtime import logs
+from app.service import metrics
 from app.service.broker import celery_config
 from app.runtime.settings import Settings, get_settings
 
@@ -27,3 +29,17 @@ def create_celery(settings: Settings | None = None) -> Celery:
 
 
 celery_app = create_celery()
+
+
+@signals.worker_ready.connect
+def _count_start(**_) -> None:
+    # trajlab_worker_restarts_total: a worker that keeps restarting shows as a rate (deploy/prometheus/alerts.yml)
+    settings = get_settings()
+    metrics.count(metrics.client(settings.broker_url), "worker_restarts")
+
+
+if get_settings().log_format == "json":
+    # Connected, this signal replaces Celery's own logging set-up (its receivers configure instead)
+    @signals.setup_logging.connect
+    def _json_logging(loglevel=None, **_) -> None:
+        logs.configure("json", loglevel or "INFO")

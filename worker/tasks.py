@@ -20,7 +20,8 @@ from celery.exceptions import Ignore, SoftTimeLimitExceeded
 from sqlalchemy.exc import DBAPIError, OperationalError
 from sqlalchemy.exc import TimeoutError as PoolTimeout
 
-from app.service import jobs, studies
+from app.runtime import logs
+from app.service import jobs, metrics, studies
 from app.service.broker import redis_client, time_limit_s
 from app.service.recovery import publish_or_defer
 from app.runtime.db import Database, get_database
@@ -40,6 +41,7 @@ class DatabaseUnavailable(Exception):
     """The job could not be claimed because the database did not answer: deliver it again later."""
 
 
+@logs.isolated  # the job's log context ends with it
 def execute_job(db: Database, settings: Settings, job_id: str, attempt: int, *, worker: str) -> str | None:
     """Claim, run and store one job. Returns the stored final status, None if this delivery was stale
     (never claimed), or :data:`REFUSED` if it ran but its result was not stored.
@@ -54,7 +56,9 @@ def execute_job(db: Database, settings: Settings, job_id: str, attempt: int, *, 
     if claim is None:
         log.info("delivery of job %s attempt %d dropped (duplicate, stale or finished)", job_id, attempt)
         return None
-    log.info("job %s attempt %d started", job_id, claim.attempt)
+    logs.bind(request_id=claim.request_id, job_id=job_id, kind=claim.kind, owner=claim.owner)
+    started = time.monotonic()
+    log.info("job %s attempt %d started (request %s)", job_id, claim.attempt, claim.request_id)
     spec = KINDS[claim.kind]
     ctx = WorkerJobContext(db, claim, settings=settings, celery=celery_app)
     with ctx:
@@ -85,6 +89,8 @@ def execute_job(db: Database, settings: Settings, job_id: str, attempt: int, *, 
                         "another attempt, or finished or cancelled meanwhile)", job_id, claim.attempt, outcome.status)
         return REFUSED
     log.info("job %s attempt %d stored: %s", job_id, claim.attempt, outcome.status)
+    metrics.record_job(metrics.client(settings.broker_url), kind=claim.kind, duration_s=time.monotonic() - started,
+                       queue_wait_s=claim.queue_wait_s, iterations=metrics.solver_iterations(outcome.result))
     for nxt in studies.on_point_finished(db, job_id):  # a study's next point (or a retry)
         publish_or_defer(db, celery_app, settings, nxt)
     return outcome.status

@@ -13,6 +13,7 @@ from sqlalchemy.exc import TimeoutError as PoolTimeout
 from app.runtime.db import POOL_SIZE, get_database
 from app.api.errors import database_unavailable_handler, internal_error_handler, validation_error_handler
 from app.api.limits import reject_unsafe_text
+from app.api.observability import RequestObservation
 from app.runtime.settings import Settings, get_settings
 
 DESCRIPTION = """
@@ -36,8 +37,8 @@ async def _lifespan(_app: FastAPI):
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:
-    from app.api.routes import (console, docs, events, health, jobs, lambert, presets, results,  # after settings: routes read the registry
-                            studies, vehicles)
+    from app.api.routes import (console, docs, events, health, jobs, lambert, metrics, presets,  # after settings: routes read the registry
+                                results, studies, vehicles)
     from app.service.broker import create_publisher
     from app.api.schemas import ValidationErrorBody
 
@@ -59,6 +60,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.add_exception_handler(exc_type, database_unavailable_handler)
     # gzip above 1 kB: result JSON compresses ~5x; Starlette leaves text/event-stream alone
     app.add_middleware(GZipMiddleware, minimum_size=1000)
+    # outermost: the request id and the HTTP metrics see every response, errors and gzip included
+    app.add_middleware(RequestObservation)
     app.state.settings = settings
     app.state.db = get_database(settings.database_url, settings)
     app.state.celery = create_publisher(settings)
@@ -75,5 +78,6 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(studies.router, responses=bad_body | needs_key)
     app.include_router(lambert.router, responses=bad_body | needs_key, max_body_size=lambert.max_body_bytes(settings))
     app.include_router(health.router)
+    app.include_router(metrics.router)
     docs.mount(app)  # /docs and /redoc from packaged assets: they work offline
     return app

@@ -121,9 +121,28 @@ def cmd_recover(args: argparse.Namespace) -> int:
     return 0
 
 
+def _http_metrics_dir() -> None:
+    """prometheus-client's multiprocess mode for the API's processes (app.api.observability): a directory
+    they all write to, chosen before any of them imports the library; emptied at start (counters restart,
+    as Prometheus expects of a restarted target) and a temporary one removed at exit."""
+    import atexit
+    import shutil
+    import tempfile
+
+    path = os.environ.get("PROMETHEUS_MULTIPROC_DIR")
+    if path:
+        for stale in Path(path).glob("*.db"):
+            stale.unlink()
+        return
+    path = tempfile.mkdtemp(prefix="trajlab-metrics-")
+    os.environ["PROMETHEUS_MULTIPROC_DIR"] = path
+    atexit.register(shutil.rmtree, path, ignore_errors=True)
+
+
 def cmd_api(args: argparse.Namespace) -> int:
     import uvicorn
 
+    from app.runtime import logs
     from app.runtime.settings import get_settings
 
     settings = get_settings()
@@ -131,6 +150,8 @@ def cmd_api(args: argparse.Namespace) -> int:
     # each on a listening socket of its own (app.runtime.serving: a shared one left one process with most connections)
     options = dict(factory=True, host=args.host, port=args.port, loop="uvloop", http="httptools",
                    workers=settings.api_workers, access_log=settings.access_log)
+    options["log_config"] = logs.dict_config(settings.log_format)  # applied in each process
+    _http_metrics_dir()
     if settings.api_workers == 1:
         uvicorn.run("app.api.main:create_app", **options)
         return 0
@@ -160,7 +181,10 @@ def cmd_migrate(args: argparse.Namespace) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s %(message)s")
+    from app.runtime import logs
+
+    # read here, not through Settings: the client commands run without a service's settings
+    logs.configure("json" if os.environ.get("TRAJLAB_LOG_FORMAT", "").lower() == "json" else "text")
     parser = argparse.ArgumentParser(prog="trajlab", description=__doc__.split("\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
     for name, fn, help_ in (("serve", cmd_serve, "embedded all-in-one: Redis, worker and API"),

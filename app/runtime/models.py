@@ -67,6 +67,8 @@ class Job(Base):
     queue: Mapped[str] = mapped_column(String(32), default="trajlab.jobs", server_default="trajlab.jobs")
     # The owner (API key owner) the job belongs to; None when auth is off.
     owner: Mapped[str | None] = mapped_column(String(100))
+    # The X-Request-ID of the submission (app.runtime.logs): the worker logs it with the job's lines.
+    request_id: Mapped[str | None] = mapped_column(String(128))
     # A point of a trade study (app/service/studies.py): the study and the point's index in it.
     study_id: Mapped[str | None] = mapped_column(ForeignKey("studies.id", ondelete="SET NULL"))
     study_index: Mapped[int | None] = mapped_column(Integer)

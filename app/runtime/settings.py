@@ -42,6 +42,12 @@ class Settings(BaseSettings):
     # Python while PostgreSQL and the clients had the other (benchmarks/api_load.py, 2 cores).  Two, not
     # one per core: each keeps a pool of up to 16 connections (app.runtime.db) of PostgreSQL's 100 by default.
     api_workers: int = Field(default=2, ge=1, description="`trajlab api` processes (uvicorn workers) on one port")
+    log_format: Literal["text", "json"] = Field(
+        default="text", description="json: one JSON object per log line (time, level, logger, message, request_id, "
+                                    "job_id, kind, owner), for a log collector")
+    metrics_public: bool = Field(
+        default=False, description="GET /metrics without an admin key while TRAJLAB_AUTH=required (a scraper "
+                                   "on a private network)")
     access_log: bool = Field(default=False, description="`trajlab api` writes one log line per request (uvicorn's "
                                                          "access log; it costs about a tenth of a request's CPU)")
 

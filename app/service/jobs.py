@@ -41,6 +41,10 @@ def _iso(dt: datetime | None) -> str | None:
     return text[:-6] + "Z" if text.endswith("+00:00") else text
 
 
+def _aware(dt: datetime) -> datetime:
+    return dt.replace(tzinfo=timezone.utc) if dt.tzinfo is None else dt  # SQLite returns naive UTC
+
+
 def _error(error: dict | None) -> dict | None:
     # the fields of schemas.JobError, in its order ("details" null when not stored)
     return None if error is None else {"code": error.get("code"), "message": error.get("message"),
@@ -107,7 +111,8 @@ _JOB_BY_IDEMPOTENCY_KEY = select(JOBS).where(JOBS.c.idempotency_key == bindparam
 def create_job(db: Database, *, kind: str, params: dict, label: str | None, preset: str | None,
                idempotency_key: str | None = None, request_hash: str | None = None,
                owner: str | None = None, queue: str = QUEUE_JOBS,
-               admit: Callable[[Connection], None] | None = None) -> tuple[Job | JobRow, bool]:
+               admit: Callable[[Connection], None] | None = None,
+               request_id: str | None = None) -> tuple[Job | JobRow, bool]:
     """Insert a queued job (attempt 1) of ``owner`` for ``queue``. Returns ``(job, created)``; an
     identical request of the same owner with a known ``idempotency_key`` returns the existing job
     (its row).
@@ -123,7 +128,7 @@ def create_job(db: Database, *, kind: str, params: dict, label: str | None, pres
     values = dict(id=new_id(), kind=kind, params=params, label=label, preset=preset, status="queued",
                   progress=0.0, message="queued", attempts=1, cancel_requested=False,
                   idempotency_key=idempotency_key, request_hash=request_hash, created_at=now,
-                  owner=owner, queue=queue, published_at=now)
+                  owner=owner, queue=queue, published_at=now, request_id=request_id)
     # A Core INSERT: the ORM's unit of work was a fifth of a submission's CPU for one row.
     if idempotency_key is None and admit is None:
         with db.autocommit() as conn:
@@ -259,6 +264,11 @@ class Claim:
     kind: str
     params: dict
     attempt: int
+    # the X-Request-ID of the submission (app.runtime.logs), for the worker's log lines
+    request_id: str | None = None
+    # submission to this first start (None when the job had started before: a re-run)
+    queue_wait_s: float | None = None
+    owner: str | None = None
 
 
 def claim(db: Database, job_id: str, attempt: int, *, worker: str, max_attempts: int,
@@ -292,11 +302,13 @@ def claim(db: Database, job_id: str, attempt: int, *, worker: str, max_attempts:
                 return None
             job.attempts += 1
         job.status = "running"
+        queue_wait_s = None if job.started_at is not None else (now - _aware(job.created_at)).total_seconds()
         job.started_at = job.started_at or now
         job.heartbeat_at = now
         job.worker = worker
         job.message = f"started on {worker} (attempt {job.attempts})"
-        return Claim(job.id, job.kind, dict(job.params), job.attempts)
+        return Claim(job.id, job.kind, dict(job.params), job.attempts, request_id=job.request_id,
+                     queue_wait_s=queue_wait_s, owner=job.owner)
 
 
 def heartbeat(db: Database, job_id: str, attempt: int, *, progress: float | None, message: str | None) -> bool | None:

@@ -24,7 +24,7 @@ import re
 import threading
 import time
 
-from app.service import jobs, studies
+from app.service import jobs, metrics, studies
 from app.service.broker import QUEUES, create_publisher, publish_job, redis_client
 from app.runtime.db import Database, get_database
 from app.runtime.settings import Settings
@@ -96,6 +96,9 @@ class Recovery:
                 done["republished"] = len(sent)
                 log.warning("re-published %d queued job(s) missing from the broker", len(sent))
         done["study_points"] = sum(self._publish(job) for job in studies.advance_all(self.db))
+        metrics.count(self.redis, "reaped", done["requeued"])
+        metrics.count(self.redis, "republished", done["republished"])
+        metrics.beat(self.redis)  # a complete pass: trajlab_recovery_heartbeat_timestamp_seconds
         return done
 
     def run_forever(self) -> None:

@@ -18,6 +18,7 @@ from app.results.compact import compact
 from app.api.result_body import JobResult, result_json
 from app.api.schemas import (ErrorBody, JobList, JobOut, JobStatus, JobSubmission, NotSucceededBody,
                              ValidationErrorBody)
+from app.runtime import logs
 from app.service.broker import publish_job
 
 router = APIRouter(prefix="/v1/jobs", tags=["jobs"])
@@ -74,13 +75,16 @@ def submit_job(
         job, created = jobs.create_job(db, kind=submission.kind, params=params, label=submission.label,
                                        preset=submission.preset, idempotency_key=idempotency_key,
                                        request_hash=request_hash, owner=owner,
-                                       queue=quota.queue_for(submission.kind, cost, settings), admit=admit)
+                                       queue=quota.queue_for(submission.kind, cost, settings), admit=admit,
+                                       request_id=logs.current("request_id"))
     except quota.QuotaExceeded as exc:
         raise HTTPException(status_code=429, detail=exc.message, headers={"Retry-After": str(exc.retry_after_s)})
     except jobs.IdempotencyConflict:
         # draft-ietf-httpapi-idempotency-key-header: reuse with another payload is a 422.
         raise HTTPException(status_code=422, detail="Idempotency-Key was already used for a different request body")
     if created:
+        # the API's line of this request for the job; the worker logs the same request_id with the job's lines
+        log.info("job %s submitted (kind %s, queue %s)", job.id, job.kind, job.queue)
         try:
             publish_job(celery, settings, job_id=job.id, attempt=job.attempts, kind=job.kind, queue=job.queue)
         except Exception:

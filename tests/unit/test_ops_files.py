@@ -1,0 +1,47 @@
+"""deploy/: the alert rules load in Debian's promtool, the dashboard is Grafana JSON with a query per panel.
+That every metric they name is in a scrape is checked against a running service in
+tests/integration/test_observability.py (with :func:`metric_names_in_ops_files`)."""
+from __future__ import annotations
+
+import json
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import yaml
+
+DEPLOY = Path(__file__).resolve().parents[2] / "deploy"
+RULES = DEPLOY / "prometheus" / "alerts.yml"
+DASHBOARD = DEPLOY / "grafana" / "trajlab-dashboard.json"
+_METRIC = re.compile(r"\b(trajlab_[a-z0-9_]+|up)\b")
+
+
+def _expressions() -> list[str]:
+    rules = [rule["expr"] for group in yaml.safe_load(RULES.read_text())["groups"] for rule in group["rules"]]
+    panels = json.loads(DASHBOARD.read_text())["panels"]
+    return rules + [target["expr"] for panel in panels for target in panel["targets"]]
+
+
+def metric_names_in_ops_files() -> set[str]:
+    """Every trajlab_* series the alert rules and the dashboard query (``up`` is Prometheus's own)."""
+    return {name for expr in _expressions() for name in _METRIC.findall(expr) if name != "up"}
+
+
+def test_alert_rules_load_in_promtool():
+    promtool = shutil.which("promtool")
+    assert promtool, "promtool is missing: scripts/test-prerequisites.sh installs Debian's prometheus"
+    out = subprocess.run([promtool, "check", "rules", str(RULES)], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert "SUCCESS" in out.stdout
+
+
+def test_rules_cover_the_issue_and_dashboard_queries_every_panel():
+    alerts = {rule["alert"] for group in yaml.safe_load(RULES.read_text())["groups"] for rule in group["rules"]}
+    assert {"TrajlabQueueGrowing", "TrajlabKindFailing", "TrajlabRecoveryLoopStale",
+            "TrajlabWorkerRestarting"} <= alerts
+    dashboard = json.loads(DASHBOARD.read_text())
+    assert dashboard["uid"] and all(panel["targets"] and panel["title"] for panel in dashboard["panels"])
+    assert {"trajlab_queue_depth", "trajlab_jobs_finished_total", "trajlab_recovery_heartbeat_timestamp_seconds",
+            "trajlab_worker_restarts_total", "trajlab_job_duration_seconds_bucket",
+            "trajlab_http_request_duration_seconds_bucket", "trajlab_build_info"} <= metric_names_in_ops_files()
