@@ -192,7 +192,8 @@ def test_free_final_time_fuel_falls_with_the_upper_bound():
     for upper in (8080.5, 10000.0, 12000.0):
         sol = _free(upper)
         assert sol.status.outcome is Outcome.OPTIMAL, (upper, sol.status.message)
-        assert sol.tf_s <= upper + 1e-3     # IPOPT relaxes bounds by 1e-8 (relative)
+        # IPOPT relaxes bounds by 1e-8 (relative); the stated arrival never leaves them (issue 25)
+        assert 2000.0 <= sol.tf_s <= upper and sol.t_s[-1] <= upper
         o = sol.optimality
         # at an active upper bound H = -dJ/dtf < 0 (more time would save fuel), else 0
         assert o["hamiltonian_relative_error"] < 1e-6, (upper, o)

@@ -74,6 +74,30 @@ def _problem(params: RobustReentryParams):
             second_order=r.second_order, heat_margin=r.heat_margin, substeps=r.substeps))
 
 
+def objective_standard_error(std: float, k: float, n: int) -> float:
+    """Standard error of the Monte Carlo's ``mean - k std`` over ``n`` samples: the mean's
+    ``std / sqrt(n)`` and the sample standard deviation's ``std / sqrt(2 (n - 1))`` (normal samples,
+    for which the two estimates are independent), combined."""
+    return std * math.sqrt(1.0 / n + k * k / (2.0 * (n - 1)))
+
+
+def headline_objective(objective: dict, mc_objective: dict) -> str:
+    """Make the robust design's headline objective the one its Monte Carlo supports: ``value`` becomes
+    the Monte Carlo's ``mean - kJ std`` (with ``standard_error``), CADET's figure moves to ``cadet_value``;
+    returns the note that says which it is and why."""
+    objective["cadet_value"] = objective["value"]
+    mc, se = mc_objective.get("mean_minus_k_std"), mc_objective.get("standard_error")
+    if mc is None or se is None:
+        objective.update(source="cadet", standard_error=None)
+        return ("objective: CADET's mean - kJ sigma; the Monte Carlo gave no estimate of it (too few "
+                "successful samples), so the headline value is the first-order prediction")
+    objective.update(value=mc, source="monte_carlo", standard_error=se)
+    cadet = objective["cadet_value"]
+    return (f"objective: the Monte Carlo's mean - kJ std of the final latitude, {mc:.4f} +- {se:.4f} deg "
+            f"(one standard error); CADET's figure for the same design was {cadet:.4f} deg "
+            f"({(cadet - mc) / se:+.1f} standard errors from it)")
+
+
 def _mc_block(summary: dict, prediction, objective_k: float) -> dict:
     """One design's Monte Carlo statistics in API units, CADET's prediction side by side, and
     the plots' envelope, sample traces and terminal samples."""
@@ -91,9 +115,12 @@ def _mc_block(summary: dict, prediction, objective_k: float) -> dict:
                                 if cadet_std > 0 else 0.0}
     out["terminal"] = terminal
     lat = terminal["latitude_deg"]
+    n = int(summary["samples"]) - int(summary["failed_samples"])
+    known = lat["mean"] is not None and lat["std"] is not None and n >= 2
     out["objective"] = {"name": "latitude_deg", "mean": lat["mean"], "std": lat["std"],
-                        "mean_minus_k_std": None if lat["mean"] is None or lat["std"] is None
-                        else json_float(lat["mean"] - objective_k * lat["std"]),
+                        "mean_minus_k_std": json_float(lat["mean"] - objective_k * lat["std"]) if known else None,
+                        "standard_error": json_float(objective_standard_error(lat["std"], objective_k, n))
+                        if known else None,
                         "cadet_mean": lat["cadet_mean"], "cadet_std": lat["cadet_std"]}
     by_name = {c.name: c for c in STATES}
     out["terminal_within_required"] = {
@@ -249,6 +276,7 @@ def run(params: RobustReentryParams, ctx: JobContext) -> RunOutcome:
               "substeps_per_interval": mcp.substeps, "executed": "workers",
               "deterministic": _mc_block(do_summary, do_p2, kj), "robust": _mc_block(summary, p2, kj)}
     result["monte_carlo"] = mc_out
+    notes = [*notes, headline_objective(result["objective"], mc_out["robust"]["objective"])]
     result["confirmation"] = {
         "agrees": agrees, "design_round": best + 1, "max_rounds": settings.max_rounds,
         "confidence": settings.confidence, "rounds": [_round_block(rec) for rec in rounds],

@@ -22,6 +22,11 @@ class RobustResultObjective(ReentryResultObjective):
     mean_latitude_deg: Num = Field(description="CADET mean of the final latitude (deg)")
     sigma_latitude_deg: Num = Field(description="CADET standard deviation of the final latitude (deg)")
     k_objective: Num = Field(description="kJ, the sigma multiplier of the objective (dimensionless)")
+    source: str | None = Field(None, description="Where `value` comes from: monte_carlo (mean - kJ std of "
+                               "the design's Monte Carlo, the default) or cadet (the NLP's first-order "
+                               "prediction, when the Monte Carlo gave no estimate; the notes say why)")
+    cadet_value: Num = Field(None, description="CADET's mean - kJ sigma, the figure the NLP optimized (deg)")
+    standard_error: Num = Field(None, description="Standard error of the Monte Carlo's value (deg)")
 
 
 class RobustResultTrajectory(ReentryResultTrajectory):
@@ -81,6 +86,7 @@ class RobustResultMonteCarloObjective(ResultModel):
     mean: Num = Field(description="Monte Carlo mean (deg)")
     std: Num = Field(description="Monte Carlo standard deviation (deg)")
     mean_minus_k_std: Num = Field(description="mean - kJ std, the robust objective measured (deg)")
+    standard_error: Num = Field(None, description="Its standard error: std sqrt(1/n + kJ^2 / (2 (n - 1))) (deg)")
     cadet_mean: Num = Field(description="CADET mean (deg)")
     cadet_std: Num = Field(description="CADET standard deviation (deg)")
 

@@ -144,9 +144,16 @@ def solve_finite_thrust(problem: FiniteThrustProblem, *, initial_guess: Impulsiv
     sol = FiniteThrustSolution(status=status, history=history)
     mesh = layout.mesh()
     sc = s.sc
-    t = mesh.node_fractions().ravel() * tf * sc.time_s
+    tf_s = float(tf * sc.time_s)
+    if problem.scenario.free_final_time:
+        # IPOPT relaxes bounds by 1e-8 relative (bound_relax_factor): an arrival at 7000.00007 s of a
+        # [2000, 7000] s window is the NLP's tolerance, not an answer; the stated time stays inside the
+        # window (issue 25: a study row never states a time outside its bounds).
+        lo_s, hi_s = problem.scenario.tf_bounds_s
+        tf_s = min(max(tf_s, float(lo_s)), float(hi_s))
+    t = mesh.node_fractions().ravel() * tf_s
     states = X * np.array([sc.length_m] * 3 + [sc.speed_mps] * 3 + [problem.scenario.mass_kg])[:, None]
-    sol.tf_s = float(tf * sc.time_s)
+    sol.tf_s = tf_s
     sol.final_mass_kg = float(states[6, -1])
     sol.fuel_kg = float(problem.scenario.mass_kg - states[6, -1])
     sol.t_s, sol.states, sol.thrust_n = t, states, problem.scenario.max_thrust_n * U[0] * U[1:]
