@@ -34,6 +34,7 @@ from solvers.transcription.multiple_shooting import (PathConstraint, ShootingPro
 from solvers.reentry.guess import InitialGuess, linear_guess, on_grid, simulate_constant_controls
 from solvers.reentry.limits import hold_problem_limits, limit_checks, path_limits
 from solvers.reentry import terminal as term
+from solvers.reentry.certificate import certified_infeasible
 from solvers.reentry.problem import HEAT_LOAD_SCALE, T_SCALE, ReentryProblem, ReentrySolution
 from solvers.verification import Verification, propagate_dense
 
@@ -203,6 +204,10 @@ def solve(problem: ReentryProblem, *, initial_guess: InitialGuess | str | None =
         # A constant-control glide is a physical trajectory (all matching conditions hold), from
         # which IPOPT needs ~15 iterations on the Betts case; straight lines need ~90.
         guess = simulate_constant_controls(problem, alpha_rad=17.0 * sh.DEG, bank_rad=-60.0 * sh.DEG)
+    proved = certified_infeasible(problem, guess) if has_path else None
+    if proved is not None:
+        # Proved before any iteration (solvers.reentry.certificate): the outcome rests on the problem.
+        return proved
     if problem.terminal.latitude_rad is not None or problem.terminal.longitude_rad is not None:
         # A terminal position may be out of reach (paper 000 case 4). Telling IPOPT to expect
         # infeasibility makes it enter restoration early and stop at a point of minimal

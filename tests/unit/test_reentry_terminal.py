@@ -78,3 +78,33 @@ def test_substeps_follow_rk4s_order_and_checks_compare_with_the_tolerance():
     checks = term.terminal_checks(req, Ver(), tol)
     assert [checks[n]["held"] for n in ("altitude_m", "speed_mps", "flight_path_rad")] == [True, False, True]
     assert term.worst_ratio(checks) == pytest.approx(2.0)
+
+
+def test_impossible_heating_limit_is_proved_infeasible_before_the_nlp():
+    # Issue 25 item 3: 2e5 W/m^2 on the aero-table vehicle; its entry state alone heats at 3.77e5 W/m^2
+    # with any control (Sutton-Graves does not depend on alpha), so no trajectory keeps the limit.
+    from app.kinds.reentry.result_model import ReentryResult
+
+    out = run(aero_table_case(path={"max_heat_rate_w_m2": 2.0e5}), RecordingContext())
+    assert out.status == "failed" and out.error["code"] == "infeasible"
+    assert "at the entry" in out.error["message"] and "heat_rate_w_m2" in out.error["message"]
+    cert = out.error["details"]["certificate"]
+    entry = next(c for c in cert if c["where"] == "entry")
+    assert entry["proves_infeasible"] and entry["least"] == pytest.approx(3.77e5, rel=0.01)
+    assert out.result["solver"]["iterations"] == 0          # no NLP iterate decided it
+    ReentryResult.model_validate(out.result)
+
+
+def test_least_betts_heating_over_alpha_is_the_cubics_minimum_and_feasible_limits_pass():
+    from solvers.models import reentry_dynamics as dyn
+    from solvers.reentry import ReentryProblem
+    from solvers.reentry.certificate import least_at_pinned_ends
+
+    pr = ReentryProblem(max_heat_rate_w_m2=sh.BETTS_HEAT_LIMIT_W_M2)
+    bounds = least_at_pinned_ends(pr)
+    assert {b["where"] for b in bounds} == {"entry", "end"} and not any(b["proves_infeasible"] for b in bounds)
+    entry = next(b for b in bounds if b["where"] == "entry")
+    alphas = np.radians(np.linspace(-90.0, 90.0, 180001))
+    X = np.tile(np.asarray(sh.BETTS_INITIAL_STATE, float)[:, None], (1, alphas.size))
+    grid_min = dyn.heat_rate(X, np.vstack([alphas, np.zeros_like(alphas)]), pr.vehicle, np).min()
+    assert entry["least"] <= grid_min and entry["least"] == pytest.approx(grid_min, rel=1e-8)
