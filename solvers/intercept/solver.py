@@ -163,6 +163,25 @@ def solve_impulsive(problem: InterceptProblem, *, on_progress: ProgressFn | None
     return sol
 
 
+def best_intercept_time(problem: InterceptProblem) -> float:
+    """The interception time of the best single impulse: ``tf_s`` when it is fixed; with a free final
+    time the best point of a maneuver x interception-time map over the tf bounds (delta-v is multimodal
+    in tf: the geometry repeats with the target's period), ``tf_s`` clipped into them when none reaches."""
+    sn = problem.scenario
+    if not sn.free_final_time:
+        return sn.tf_s
+    lo, hi = sn.tf_bounds_s
+    base = replace(problem, porkchop=None, scan=replace(problem.scan, t_end_s=None, t_start_s=0.0))
+    r0i, v0i, r0t, v0t = sn.initial_states()
+    settings = PorkchopSettings(t_man_points=240, t_intercept_points=int(np.clip((hi - lo) / 60.0, 40, 400)) + 1,
+                                t_man_min_s=0.0, t_man_max_s=hi, t_intercept_min_s=lo, t_intercept_max_s=hi)
+    pc = porkchop_map(settings, mu=sn.mu_m3_s2, t1=sn.tf_s, interceptor=(r0i, v0i), target=(r0t, v0t),
+                      branches=_branches(base.scan), body_radius_m=base.scan.excluded_below_m)
+    if np.isfinite(pc.best_t_intercept_s):
+        return float(min(max(pc.best_t_intercept_s, lo), hi))
+    return float(min(max(sn.tf_s, lo), hi))
+
+
 def _impulsive_start(problem: InterceptProblem, earlier: ImpulsiveSolution | None, progress, stop):
     """Warm start for the finite-thrust method: ``(ImpulsiveGuess, tf_s, impulsive solution)``.
 
@@ -173,19 +192,10 @@ def _impulsive_start(problem: InterceptProblem, earlier: ImpulsiveSolution | Non
     local NLP started elsewhere would keep the nearest local optimum.
     """
     sn = problem.scenario
-    tf = sn.tf_s
     base = replace(problem, porkchop=None, scan=replace(problem.scan, t_end_s=None, t_start_s=0.0))
+    tf = best_intercept_time(problem)
     if sn.free_final_time:
-        lo, hi = sn.tf_bounds_s
-        r0i, v0i, r0t, v0t = sn.initial_states()
-        pc_problem = replace(base, porkchop=PorkchopSettings(
-            t_man_points=240, t_intercept_points=int(np.clip((hi - lo) / 60.0, 40, 400)) + 1, t_man_min_s=0.0,
-            t_man_max_s=hi, t_intercept_min_s=lo, t_intercept_max_s=hi))
-        pc = porkchop_map(pc_problem.porkchop, mu=sn.mu_m3_s2, t1=tf, interceptor=(r0i, v0i), target=(r0t, v0t),
-                          branches=_branches(base.scan), body_radius_m=base.scan.excluded_below_m)
-        if np.isfinite(pc.best_t_intercept_s):
-            tf = pc.best_t_intercept_s
-        earlier = None
+        earlier = None     # found on the map with the warm start's own scan step
     if earlier is None or not earlier.status.ok or abs(earlier.tf_s - tf) > 1e-9:
         earlier = solve_impulsive(replace(base, scenario=replace(sn, tf_s=tf), scan=replace(base.scan, step_s=5.0)),
                                   should_stop=stop)
@@ -252,6 +262,11 @@ def by_impulsive_bound(sol: FiniteThrustSolution, imp: ImpulsiveSolution | None,
 
 
 def _run_impulsive(problem, *, on_progress=None, should_stop=None, initial_guess=None, earlier=None):
+    # Free final time: the best single impulse within the tf bounds, so that the impulsive answer is
+    # one the bounds allow (issue 25: a study row over the upper bound showed the 8080.5 s answer).
+    sn = problem.scenario
+    if sn.free_final_time:
+        problem = replace(problem, scenario=replace(sn, tf_s=best_intercept_time(problem)))
     return solve_impulsive(problem, on_progress=on_progress, should_stop=should_stop)
 
 

@@ -308,3 +308,22 @@ def test_cheapest_impulse_above_the_propellant_on_board_is_infeasible():
     assert ft.status.outcome is Outcome.INFEASIBLE, ft.status
     assert ft.status.solver_status == "insufficient_propellant" and "600 kg of propellant" in ft.status.message
     assert sol.status.outcome is Outcome.INFEASIBLE
+
+
+@pytest.mark.parametrize("upper", [7500.0, 8000.0])
+def test_a_study_row_states_no_time_outside_its_bounds(upper):
+    # Issue 25 item 4: fuel-vs-intercept-time rows whose allowed time ends before 8080.5 s showed the
+    # impulsive answer at 8080.5 s; the impulsive method now answers within the row's own bounds.
+    from app.api.params import deep_merge
+    from app.kinds.intercept import PRESETS, SPEC, run
+    from app.service.study_presets import STUDY_PRESETS
+    from tests.support import RecordingContext
+
+    study = STUDY_PRESETS["fuel-vs-intercept-time"]
+    base = next(p for p in PRESETS if p.name == study["preset"]).params
+    params = deep_merge(deep_merge(base, study["params"]), {"tf_bounds_s": [2000.0, upper]})
+    out = run(SPEC.params_model.model_validate(params), RecordingContext())
+    key = SPEC.key_numbers(out.result)
+    times = {k: v for k, v in key.items() if k.endswith("tf_s") and v is not None}
+    assert {"impulsive.tf_s", "finite_thrust.tf_s"} <= set(times)
+    assert all(2000.0 <= v <= upper for v in times.values()), times

@@ -139,7 +139,8 @@ def run(params: InterceptParams, ctx: JobContext) -> RunOutcome:
         if params.free_final_time:
             notes.append("free final time: the fuel is multimodal in tf (the geometry repeats with the "
                          "target's period), so the answer is the best local optimum near the best single "
-                         "impulse within tf_bounds_s; with a larger upper bound the fuel can only fall")
+                         "impulse within tf_bounds_s; with a larger upper bound the fuel can only fall; the "
+                         "impulsive answer is that best single impulse within tf_bounds_s too")
     result["comparison"] = comparison(result)
     # a failed solve still stores what was computed as the diagnostic
     return outcome_from_status(sol.status, result)
