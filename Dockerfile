@@ -3,12 +3,15 @@ FROM python:3.11-slim
 WORKDIR /srv/trajlab
 # NUMBA_CACHE_DIR: the read-only image cannot hold numba's compiled Lambert loop; /tmp (tmpfs) can
 ENV PYTHONDONTWRITEBYTECODE=1 PYTHONUNBUFFERED=1 MPLCONFIGDIR=/tmp/matplotlib NUMBA_CACHE_DIR=/tmp/numba
+# the dependencies first, from the lock (uv.lock exported with hashes: make lock), as their own layer
+COPY requirements/base.txt ./requirements/base.txt
+RUN pip install --no-cache-dir --require-hashes -r requirements/base.txt
 COPY pyproject.toml README.md alembic.ini ./
 COPY app ./app
 COPY worker ./worker
 COPY solvers ./solvers
 COPY migrations ./migrations
-RUN pip install --no-cache-dir .
+RUN pip install --no-cache-dir --no-deps .
 # The workers compile IPOPT's derivatives to C once per problem structure (TRAJLAB_JIT=background).
 RUN apt-get update && apt-get install -y --no-install-recommends gcc libc6-dev && rm -rf /var/lib/apt/lists/*
 # Run as an unprivileged user that owns nothing it could overwrite (the code stays root's, read-only).

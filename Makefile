@@ -5,22 +5,47 @@ PY     := $(VENV)/bin/python
 # make run PORT=8001 (or TRAJLAB_PORT=8001 make run) when 8000 is taken
 PORT   ?= $(or $(TRAJLAB_PORT),8000)
 
-.PHONY: run test install install-test bench clean
+# `make run` prints how long it took to the first /healthz (scripts/first_healthz.py)
+MAKE_STARTED := $(shell date +%s.%N)
 
-$(VENV)/.installed: pyproject.toml
+.PHONY: run test install install-test bench clean lock
+
+# Installs follow the lock, uv.lock: every transitive dependency at one version with its hashes, so two
+# installs a month apart are the same.  uv (pinned) installs from it in seconds; uv reads PyPI only
+# (never pip.conf's local indexes under /opt, which CI's machine has too).  --locked stops when
+# pyproject.toml changed without `make lock`; --inexact leaves the other extras' packages (and uv) alone.
+# Without uv (it could not be installed) pip installs the same versions from the lock's export,
+# requirements/*.txt.
+UV_VERSION := 0.13.9
+UV := $(VENV)/bin/uv
+UV_SYNC = UV_PROJECT_ENVIRONMENT=$(VENV) UV_PYTHON_DOWNLOADS=never $(UV) sync --locked --inexact --quiet
+define install_locked
+	if [ -x $(UV) ]; then $(UV_SYNC) $(1); \
+	else $(PY) -m pip install --quiet -r requirements/$(2).txt && $(PY) -m pip install --quiet --no-deps -e .; fi
+endef
+
+$(VENV)/.installed: pyproject.toml uv.lock
 	$(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e .
+	$(PY) -m pip install --quiet uv==$(UV_VERSION) || echo "make: uv could not be installed; pip installs from requirements/*.txt (slower)" >&2
+	$(call install_locked,,base)
 	touch $@
 
-$(VENV)/.installed-test: $(VENV)/.installed pyproject.toml
-	$(PY) -m pip install --quiet -e ".[test]"
+$(VENV)/.installed-test: $(VENV)/.installed pyproject.toml uv.lock
+	$(call install_locked,--extra test,test)
 	touch $@
+
+# After a change of pyproject.toml's dependencies: re-resolve (from PyPI) and export for the pip path.
+lock: $(VENV)/.installed
+	$(UV) lock
+	$(UV) export --quiet --frozen --no-emit-project --no-header -o requirements/base.txt
+	$(UV) export --quiet --frozen --no-emit-project --no-header --extra test -o requirements/test.txt
+	$(UV) export --quiet --frozen --no-emit-project --no-header --extra bench -o requirements/bench.txt
 
 install: $(VENV)/.installed
 install-test: $(VENV)/.installed-test
 
 run: install
+	@$(PY) scripts/first_healthz.py --port $(PORT) --since $(MAKE_STARTED) &
 	$(VENV)/bin/trajlab serve --port $(PORT)
 
 # scripts/test-prerequisites.sh makes the machine's PostgreSQL, Redis and Debian's Chromium present
@@ -31,8 +56,8 @@ test: install-test
 	$(VENV)/bin/lint-imports
 	$(PY) -m pytest $(PYTEST_ARGS)
 
-$(VENV)/.installed-bench: $(VENV)/.installed pyproject.toml
-	$(PY) -m pip install --quiet -e ".[bench]"
+$(VENV)/.installed-bench: $(VENV)/.installed pyproject.toml uv.lock
+	$(call install_locked,--extra bench,bench)
 	touch $@
 
 # Every benchmark in its own process (benchmarks/run_all.py): one that fails or hangs (BENCH_TIMEOUT s)
