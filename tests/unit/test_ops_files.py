@@ -45,3 +45,17 @@ def test_rules_cover_the_issue_and_dashboard_queries_every_panel():
     assert {"trajlab_queue_depth", "trajlab_jobs_finished_total", "trajlab_recovery_heartbeat_timestamp_seconds",
             "trajlab_worker_restarts_total", "trajlab_job_duration_seconds_bucket",
             "trajlab_http_request_duration_seconds_bucket", "trajlab_build_info"} <= metric_names_in_ops_files()
+
+
+def test_scrape_config_loads_in_promtool(tmp_path):
+    # the compose paths (/etc/prometheus/...) pointed at deploy/'s rules and a stand-in key file
+    key = tmp_path / "key"
+    key.write_text("tl_stand_in\n")
+    text = (DEPLOY / "prometheus" / "prometheus.yml").read_text()
+    config = tmp_path / "prometheus.yml"
+    config.write_text(text.replace("/etc/prometheus/trajlab-alerts.yml", str(RULES))
+                      .replace("/etc/prometheus/trajlab-metrics-key", str(key)))
+    promtool = shutil.which("promtool")
+    assert promtool, "promtool is missing: scripts/test-prerequisites.sh installs Debian's prometheus"
+    out = subprocess.run([promtool, "check", "config", str(config)], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stdout + out.stderr
