@@ -22,7 +22,9 @@ def test_betts_max_crossrange_and_warm_start(service):
     assert job2["status"] == "succeeded", job2
     res2 = service.result(job2["id"])
     assert res2["final"]["latitude_deg"] == pytest.approx(34.1412, abs=2e-3)
-    assert res2["solver"]["iterations"] <= 15
+    # the warm solve itself; a terminal refinement round may follow at 60 intervals (issue 25)
+    assert res2["solver"]["stages"][0]["iterations"] <= 15
+    assert res2["verification"]["terminal_held"] is True
 
 
 def test_case4_fails_infeasible(service):
