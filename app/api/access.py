@@ -20,7 +20,7 @@ from fastapi import Depends, HTTPException, Request
 from fastapi.concurrency import run_in_threadpool
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
-from app.api import auth
+from app.api import auth, key_attempts
 from app.service import jobs
 from app.runtime.db import Database
 from app.runtime.models import Job
@@ -63,8 +63,15 @@ async def _principal(request: Request,
 def _key_principal(request: Request, credentials: HTTPAuthorizationCredentials | None) -> Principal:
     if credentials is None:
         raise _unauthorized("an API key is required: Authorization: Bearer KEY")
+    attempts = key_attempts.for_app(request.app.state, request.app.state.settings)
+    address = request.client.host if request.client is not None else ""
+    wait_s = attempts.retry_after_s(address)
+    if wait_s is not None:  # refused before the lookup: guessing costs no database read
+        raise HTTPException(status_code=429, headers={"Retry-After": str(wait_s)},
+                            detail=f"too many failed API-key attempts from this address; retry in {wait_s} s")
     key = auth.authenticate(request.app.state.db, credentials.credentials)
     if key is None:
+        attempts.failed(address)
         raise _unauthorized("unknown or revoked API key", error="invalid_token")
     return Principal(owner=key.owner, admin=key.admin)
 

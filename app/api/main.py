@@ -13,6 +13,7 @@ from sqlalchemy.exc import TimeoutError as PoolTimeout
 from app.runtime.db import POOL_SIZE, get_database
 from app.api.errors import database_unavailable_handler, internal_error_handler, validation_error_handler
 from app.api.limits import reject_unsafe_text
+from app.api.security_headers import SecurityHeaders
 from app.api.observability import RequestObservation
 from app.runtime.settings import Settings, get_settings
 
@@ -60,6 +61,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.add_exception_handler(exc_type, database_unavailable_handler)
     # gzip above 1 kB: result JSON compresses ~5x; Starlette leaves text/event-stream alone
     app.add_middleware(GZipMiddleware, minimum_size=1000)
+    # CSP, frame refusal, nosniff and Referrer-Policy on the console's and the docs' pages (issue 30)
+    app.add_middleware(SecurityHeaders)
     # outermost: the request id and the HTTP metrics see every response, errors and gzip included
     app.add_middleware(RequestObservation)
     app.state.settings = settings
@@ -67,7 +70,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.celery = create_publisher(settings)
     bad_body = {400: {"description": "The body is not valid JSON (e.g. not UTF-8)"},
                 413: {"description": "The body is larger than TRAJLAB_MAX_BODY_BYTES (refused before parsing)"}}
-    needs_key = {401: {"description": "No, unknown or revoked API key (TRAJLAB_AUTH=required)"}}
+    needs_key = {401: {"description": "No, unknown or revoked API key (TRAJLAB_AUTH=required)"},
+                 429: {"description": "Too many failed API-key attempts from this address (TRAJLAB_AUTH_MAX_FAILURES); "
+                                       "`Retry-After` says when to try again"}}
     app.include_router(jobs.router, responses=bad_body | needs_key)
     app.include_router(events.router, responses=needs_key)
     app.include_router(results.router, responses=needs_key)

@@ -48,7 +48,8 @@ def run_pools(commands: dict[str, list[str]]) -> int:
     (systemd, compose) restarts the worker as a whole.  The pools stay in this process group (a signal
     to the group, a terminal's Ctrl-C or a kill of the group, reaches them as it would one Celery
     worker) and die with this process if it is killed alone."""
-    procs = [subprocess.Popen(cmd, preexec_fn=exit_with_parent) for cmd in commands.values()]
+    # preexec_fn before any thread of ours starts (PLW1509: unsafe only with threads running)
+    procs = [subprocess.Popen(cmd, preexec_fn=exit_with_parent) for cmd in commands.values()]  # noqa: PLW1509
     ended = threading.Event()
     for sig in (signal.SIGTERM, signal.SIGINT):
         signal.signal(sig, lambda *_: ended.set())

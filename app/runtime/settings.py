@@ -116,6 +116,10 @@ class Settings(BaseSettings):
     auth: Literal["required", "off"] = Field(
         default="required", description="required: every /v1 request needs `Authorization: Bearer KEY`; "
                                          "off: no keys, every caller sees every job (local use only)")
+    auth_max_failures: int = Field(
+        default=10, ge=1, description="Failed API-key attempts one client address may make per "
+                                      "auth_failure_window_s before it is answered 429 (app.api.key_attempts)")
+    auth_failure_window_s: float = Field(default=60.0, gt=0, description="Window of auth_max_failures (s)")
     max_body_bytes: int = Field(default=1_048_576, ge=0, description="Request body cap (413 before parsing)")
     max_queued_per_owner: int = Field(default=10, ge=1, description="Queued jobs one owner may have (429 past it)")
     max_active_per_owner: int = Field(default=20, ge=1, description="Queued + running jobs of one owner (429)")

@@ -5,6 +5,7 @@ Every request the browser makes is recorded: none may leave 127.0.0.1.
 from __future__ import annotations
 
 import shutil
+import time
 import uuid
 from urllib.parse import urlparse
 
@@ -28,7 +29,10 @@ def browser_page(service):
         pytest.fail("Debian's chromium is not installed (make test installs it: scripts/test-prerequisites.sh)")
     with live_server(service.client.app) as url, sync_api.sync_playwright() as pw:
         browser = pw.chromium.launch(executable_path=CHROMIUM, args=ARGS)
-        page = browser.new_page()
+        # Playwright's wait_for_function evaluates its predicate as a string, which the console's CSP refuses
+        # ('unsafe-eval'); these tests drive the pages with the policy bypassed, and
+        # test_the_pages_work_under_their_content_security_policy_with_no_violation holds it
+        page = browser.new_page(bypass_csp=True)
         seen: list[str] = []
         page.on("request", lambda req: seen.append(req.url))
         page.set_default_timeout(30_000)
@@ -172,3 +176,66 @@ def test_docs_and_a_report_render_offline(browser_page, service):
     page.goto(f"{url}/jobs/{job['id']}")  # the console's job page shows the plots as images
     page.wait_for_function("[...document.querySelectorAll('#plots img')].some(i => i.naturalWidth > 0)")
     assert all(urlparse(u).hostname in (None, "127.0.0.1") for u in seen if u.startswith("http"))
+
+
+def _csp_violations(page) -> list[str]:
+    """Chromium reports a blocked script, style, eval or frame as a console error naming the policy."""
+    found: list[str] = []
+    page.on("console", lambda msg: found.append(msg.text) if "Content Security Policy" in msg.text
+            or "X-Frame-Options" in msg.text else None)
+    return found
+
+
+def _until(tab, js: str, timeout: float = 60.0) -> None:
+    """Poll ``js`` from here (CDP evaluation, which a page's CSP does not govern, unlike wait_for_function)."""
+    deadline = time.monotonic() + timeout
+    while not tab.evaluate(js):
+        assert time.monotonic() < deadline, f"not within {timeout} s: {js}"
+        time.sleep(0.2)
+
+
+def test_the_pages_work_under_their_content_security_policy_with_no_violation(browser_page, service):
+    url, page, _ = browser_page
+    job = service.submit("intercept", preset="long-range-intercept", params=IMPULSIVE).json()
+    assert service.wait(job["id"])["status"] == "succeeded"
+    context = page.context.browser.new_context()  # the policy enforced (the fixture's page bypasses it)
+    tab = context.new_page()
+    violations = _csp_violations(tab)
+    try:
+        r = tab.goto(f"{url}/")
+        assert "frame-ancestors 'none'" in r.headers["content-security-policy"]
+        assert r.headers["x-frame-options"] == "DENY" and r.headers["x-content-type-options"] == "nosniff"
+        _until(tab, "document.querySelector('#page-info').textContent.includes(' of ')")
+        _until(tab, "[...document.querySelectorAll('#jobs .bar')].some(b => b.style.width === '100%')")
+        tab.goto(f"{url}/new?kind=intercept")
+        tab.wait_for_selector('input[data-path="methods"]')
+        assert "1501.73" in tab.inner_text("#preset-description")  # the presets came through the JSON block
+        tab.goto(f"{url}/jobs/{job['id']}")
+        _until(tab, "document.querySelector('#status').textContent === 'succeeded'")
+        _until(tab, "[...document.querySelectorAll('#plots img')].some(i => i.naturalWidth > 0)")
+        tab.goto(f"{url}/compare?ids={job['id']}")
+        tab.wait_for_selector("#compare-form")
+        tab.goto(f"{url}/docs")
+        tab.wait_for_selector(".opblock-summary-path", timeout=60_000)  # Swagger UI ran from its nonce'd script
+        tab.goto(f"{url}/redoc")
+        tab.wait_for_selector("h1", timeout=60_000)
+        tab.goto(f"{url}/v1/jobs/{job['id']}/report.html")
+        assert tab.locator("figure svg").count() == 1
+        tab.wait_for_timeout(300)  # a late report has time to arrive
+        assert violations == [], violations
+    finally:
+        context.close()
+
+
+def test_a_framing_page_is_refused(browser_page):
+    url, page, _ = browser_page
+    context = page.context.browser.new_context()
+    tab = context.new_page()
+    violations = _csp_violations(tab)
+    try:
+        tab.set_content(f'<iframe id="f" src="{url}/" width="600" height="400"></iframe>')
+        tab.wait_for_timeout(1500)
+        assert tab.frame_locator("#f").locator("#jobs").count() == 0  # the console never rendered in the frame
+        assert any("frame-ancestors" in v or "X-Frame-Options" in v for v in violations), violations
+    finally:
+        context.close()

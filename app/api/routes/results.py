@@ -23,6 +23,7 @@ from app.kinds.midcourse.oem import default_point, midcourse_to_oem
 from app.kinds.intercept.oem import to_oem
 from app.results.oem import has_oem
 from app.api.schemas import ErrorBody
+from app.api.security_headers import REPORT_CSP
 from app.results.report import render_report
 from app.results.tables import tables_for, to_csv
 from app.service.summary import key_numbers
@@ -122,7 +123,7 @@ async def get_report(job_id: str, db: DatabaseDep, principal: PrincipalDep,
                              svgs=svgs).encode()
 
     body = await run_in_threadpool(_cached, (job_id, "report", "html"), make)
-    return HTMLResponse(body, headers={"ETag": etag, "Cache-Control": CACHE_CONTROL})
+    return HTMLResponse(body, headers={"ETag": etag, "Cache-Control": CACHE_CONTROL, "Content-Security-Policy": REPORT_CSP})
 
 
 @router.get("/{job_id}/result.csv", operation_id="get_result_csv", response_class=PlainTextResponse,
