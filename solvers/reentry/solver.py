@@ -35,6 +35,7 @@ from solvers.reentry.guess import InitialGuess, linear_guess, on_grid, simulate_
 from solvers.reentry.limits import hold_problem_limits, limit_checks, path_limits
 from solvers.reentry import terminal as term
 from solvers.reentry.certificate import certified_infeasible
+from solvers.reentry.minmax import classify_by_least_peak
 from solvers.reentry.problem import HEAT_LOAD_SCALE, T_SCALE, ReentryProblem, ReentrySolution
 from solvers.verification import Verification, propagate_dense
 
@@ -249,8 +250,12 @@ def solve(problem: ReentryProblem, *, initial_guess: InitialGuess | str | None =
     terminal = None
     if ver is not None:
         problem, tr, res, ver, report, terminal = _hold_terminal(problem, tr, res, ver, report, run)
-    return _solution(problem, tr, res, timer["build"], notes, stages, ver=ver, report=report,
-                     terminal=terminal, verification_time_s=timer["s"])
+    sol = _solution(problem, tr, res, timer["build"], notes, stages, ver=ver, report=report,
+                    terminal=terminal, verification_time_s=timer["s"])
+    if sol.status.outcome is Outcome.NOT_CONVERGED and problem.max_heat_rate_w_m2 is not None:
+        classify_by_least_peak(problem, sol, sp=shooting_problem(problem), p=p, bounds=(x_lb, x_ub, u_lb, u_ub),
+                               guess=on_grid(guess, m, problem.control), should_stop=should_stop)
+    return sol
 
 
 WARM_IPOPT = {"mu_strategy": "monotone", "mu_init": 1e-3}

@@ -109,3 +109,15 @@ def test_least_betts_heating_over_alpha_is_the_cubics_minimum_and_feasible_limit
     X = np.tile(np.asarray(sh.BETTS_INITIAL_STATE, float)[:, None], (1, alphas.size))
     grid_min = dyn.heat_rate(X, np.vstack([alphas, np.zeros_like(alphas)]), pr.vehicle, np).min()
     assert entry["least"] <= grid_min and entry["least"] == pytest.approx(grid_min, rel=1e-8)
+
+
+@pytest.mark.slow
+def test_a_limit_between_the_entry_and_the_least_peak_is_infeasible_whatever_ipopt_did():
+    # 3.2e5 W/m^2: the entry heats at 3.09e5 (no pinned-end proof), but the least peak any control gives
+    # (a min-max solve) is 3.30e5. The limited NLP cannot find a feasible point; however IPOPT stops on
+    # this CPU (infeasible, restoration failed, iterations exhausted), the job ends infeasible.
+    out = run(aero_table_case(path={"max_heat_rate_w_m2": 3.2e5}), RecordingContext())
+    assert out.status == "failed" and out.error["code"] == "infeasible", out.error
+    least = out.error["details"].get("least_peak_heat_rate_w_m2")
+    if least is not None:               # classified by the min-max solve rather than by IPOPT itself
+        assert least == pytest.approx(3.30e5, rel=0.02) and "least peak heating rate" in out.error["message"]

@@ -1,0 +1,74 @@
+"""The least peak heating any control can give: a min-max solve that classifies a failed solve.
+
+When the limited NLP fails without IPOPT proving local infeasibility (``Restoration_Failed``,
+``Maximum_Iterations_Exceeded``: which of the two depends on the CPU's iterates), the problem itself
+is asked instead: minimize the peak of ``q / q_max`` over the flight, with the same dynamics,
+bounds and terminal conditions, as an epigraph (a constant extra state ``s`` with
+``q / q_max <= s`` at every RK4 step point, ``s_f`` minimized).  That problem always has feasible
+points, so it converges where the limited one wanders.  If its least peak exceeds the limit by
+more than the limit's tolerance, no control of this transcription keeps the limit: the failed
+solve is ``infeasible``, with the least peak in the message.  Like the intercept kind's impulsive
+bound it is evidence, not a proof (a local minimum of the min-max problem could lie above the
+global one), so it only classifies a solve that found no feasible point; a converged solve is
+never overruled, and when the min-max solve does not converge the failure stays what IPOPT said.
+The pinned-end bound of :mod:`solvers.reentry.certificate` is the proof, tried first.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import casadi as ca
+import numpy as np
+
+from solvers.common import Outcome
+from solvers.transcription.multiple_shooting import (
+    PathConstraint,
+    ShootingProblem,
+    Transcription,
+)
+
+S_MAX = 100.0   # the epigraph variable's upper bound (peak / limit)
+
+
+def least_peak_ratio(sp: ShootingProblem, *, p, bounds, tf_bounds, guess, should_stop=None):
+    """``(least peak of q / q_max at the step points or None, IPOPT status)`` for the reentry shooting
+    problem ``sp`` (its ``heat_rate`` path constraint is ``q / q_max - 1``); ``bounds`` and ``guess``
+    as :meth:`Transcription.solve` takes them for ``sp``."""
+    heat = next(c for c in sp.path if c.name == "heat_rate")
+    nx = sp.nx
+
+    def dynamics(x, u, pp):
+        return ca.vertcat(sp.dynamics(x[:nx], u, pp), 0)
+
+    path = (PathConstraint("peak", lambda x, u, pp: heat.fn(x[:nx], u, pp) + 1.0 - x[nx], where="substeps"),)
+    mp = dataclasses.replace(sp, key=("minmax", *sp.key), nx=nx + 1, dynamics=dynamics,
+                             x_scale=(*sp.x_scale, 1.0), mayer=lambda xf, T, pp: xf[nx], lagrange=None,
+                             objective_scale=1.0, path=path, block_derivatives=False)
+    x_lb, x_ub, u_lb, u_ub = bounds
+    m1 = x_lb.shape[1]
+    x_lb = np.vstack([x_lb, np.zeros((1, m1))])
+    x_ub = np.vstack([x_ub, np.full((1, m1), S_MAX)])
+    tf, xg, ug = guess
+    xg = np.vstack([xg, np.full((1, m1), 2.0)])
+    r = Transcription(mp).solve(p=p, x_lb=x_lb, x_ub=x_ub, u_lb=u_lb, u_ub=u_ub, tf_bounds=tf_bounds,
+                                guess=(tf, xg, ug), should_stop=should_stop, expected_iterations=60)
+    value = float(r.x[nx, -1]) if r.status.outcome is Outcome.OPTIMAL else None
+    return value, r.status
+
+
+def classify_by_least_peak(problem, sol, *, sp, p, bounds, guess, should_stop) -> None:
+    """A failed heat-limited solve is ``infeasible`` when the least peak any control gives is above
+    the limit (module docstring); ``sp``: the problem's shooting problem, ``bounds`` and ``guess`` its own."""
+    ratio, st = least_peak_ratio(sp, p=p, bounds=bounds, tf_bounds=problem.tf_bounds_s,
+                                 guess=guess, should_stop=should_stop)
+    sol.stages.append({"stage": "least peak heating", "status": st.solver_status, "iterations": st.iterations,
+                       "solve_time_s": st.solve_time_s})
+    if ratio is None:
+        return
+    limit = problem.max_heat_rate_w_m2
+    sol.status.details["least_peak_heat_rate_w_m2"] = ratio * limit
+    if ratio > 1.0 + (problem.limit_tolerance or 0.0):
+        sol.status.outcome = Outcome.INFEASIBLE
+        sol.status.message = (f"infeasible: the least peak heating rate any control gives (a min-max solve at "
+                              f"every RK4 step point) is {ratio * limit:.6g} W/m^2, above the limit {limit:.6g} "
+                              f"({100 * (ratio - 1):+.1f}%); the limited NLP itself ended {sol.status.message}")
