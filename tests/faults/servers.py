@@ -31,8 +31,8 @@ def _wait(predicate, timeout: float, what: str) -> None:
 class RedisServer:
     """``redis-server`` without persistence on a free port."""
 
-    def __init__(self, tmp: Path):
-        self.port = free_port()
+    def __init__(self, tmp: Path, listen: tuple[str, ...] = ("127.0.0.1",)):
+        self.port, self.listen = free_port(), listen  # listen: more addresses for worker hosts (tests/faults/hosts.py)
         self.dir = tmp / f"redis-{self.port}"
         self.dir.mkdir(parents=True)
         self.proc: subprocess.Popen | None = None
@@ -41,10 +41,12 @@ class RedisServer:
     def url(self) -> str:
         return f"redis://127.0.0.1:{self.port}/0"
 
-    def start(self) -> "RedisServer":
+    def start(self) -> RedisServer:
         self.proc = subprocess.Popen(
-            [shutil.which("redis-server") or "redis-server", "--port", str(self.port), "--bind", "127.0.0.1",
-             "--save", "", "--appendonly", "no", "--dir", str(self.dir)],
+            [shutil.which("redis-server") or "redis-server", "--port", str(self.port), "--bind", *self.listen,
+             "--save", "", "--appendonly", "no", "--dir", str(self.dir),
+             # no password on the private veth addresses of worker hosts (nothing is routed to them)
+             "--protected-mode", "yes" if len(self.listen) == 1 else "no"],
             stdout=open(self.dir / "redis.log", "ab"), stderr=subprocess.STDOUT, start_new_session=True)
         import redis
 
@@ -66,8 +68,8 @@ class RedisServer:
 class PostgresServer:
     """A PostgreSQL cluster of its own (initdb in a temp directory) on a free port."""
 
-    def __init__(self):
-        self.port = free_port()
+    def __init__(self, listen: tuple[str, ...] = ("127.0.0.1",)):
+        self.port, self.listen = free_port(), listen
         self.dir = Path(tempfile.mkdtemp(prefix="trajlab-pg-"))
         self.data = self.dir / "data"
         if os.geteuid() == 0:
@@ -75,13 +77,16 @@ class PostgresServer:
         subprocess.run(_as_postgres([str(PG_BIN / "initdb"), "-D", str(self.data), "-U", "postgres",
                                      "--auth=trust", "--no-sync", "-E", "UTF8"]),
                        check=True, capture_output=True, timeout=120)
+        if len(listen) > 1:  # worker hosts on private veth addresses (tests/faults/hosts.py), trusted as loopback is
+            with open(self.data / "pg_hba.conf", "a") as hba:
+                hba.writelines(f"host all all {addr.rsplit('.', 1)[0]}.0/24 trust\n" for addr in listen[1:])
 
     @property
     def url(self) -> str:
         return f"postgresql+psycopg://postgres@127.0.0.1:{self.port}/postgres"
 
-    def start(self) -> "PostgresServer":
-        opts = f"-p {self.port} -k {self.dir} -c listen_addresses=127.0.0.1 -c fsync=off"
+    def start(self) -> PostgresServer:
+        opts = f"-p {self.port} -k {self.dir} -c listen_addresses={','.join(self.listen)} -c fsync=off"
         subprocess.run(_as_postgres([str(PG_BIN / "pg_ctl"), "-D", str(self.data), "-o", opts, "-l",
                                      str(self.dir / "pg.log"), "-w", "-t", "60", "start"]),
                        check=True, capture_output=True, timeout=90)

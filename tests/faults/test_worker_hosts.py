@@ -1,0 +1,200 @@
+"""Issue 30: workers on other hosts, and links that go dead.
+
+Two worker hosts in network namespaces of their own (tests/faults/hosts.py), each reaching this
+test's PostgreSQL and Redis over a veth pair only; the API and the recovery loop stay here.  Host a is
+cut off (link down) for longer than the stale limit in the middle of a burst, then restored: no job
+is lost, none is stored twice, its job is taken over within the stated time, and its slot is free
+again within the store-retry bound (``stale_after_s`` plus one bounded database call).  Then an API
+on a third host whose database link is cut answers 503 with ``Retry-After`` at once, never a hung
+request.  The figures are printed (``pytest -s``).  Root only (``ip netns``).
+"""
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+import threading
+import time
+from collections import Counter
+
+import httpx
+import psycopg
+import pytest
+
+from tests.faults.conftest import ROOT, Stack, report
+from tests.faults.hosts import Host
+from tests.faults.servers import PostgresServer, RedisServer
+from tests.integration.live import free_port, stop_group
+
+pytestmark = [pytest.mark.integration, pytest.mark.faults,
+              pytest.mark.skipif(os.geteuid() != 0, reason="network namespaces need root (CI runs as root)")]
+
+A, B, API_DB, API_CLIENTS = 1, 2, 3, 4  # one link (subnet 10.230.<n>.0/24) each
+# Tight network timeouts for the hosts, so the bounds fit in a short test (defaults: app.runtime.settings).
+TIMEOUTS = {"TRAJLAB_DB_CONNECT_TIMEOUT_S": "3", "TRAJLAB_DB_TCP_USER_TIMEOUT_S": "5",
+            "TRAJLAB_DB_KEEPALIVES_IDLE_S": "2", "TRAJLAB_DB_KEEPALIVES_INTERVAL_S": "1",
+            "TRAJLAB_DB_KEEPALIVES_COUNT": "2", "TRAJLAB_DB_POOL_TIMEOUT_S": "5",
+            "TRAJLAB_REDIS_SOCKET_TIMEOUT_S": "3", "TRAJLAB_REDIS_CONNECT_TIMEOUT_S": "2",
+            "TRAJLAB_REDIS_HEALTH_CHECK_INTERVAL_S": "2"}
+CALL_BOUND_S = 3 + 5 + 5  # connect + unacknowledged data + pool wait: the longest one database call may block
+SHORT = {"kind": "intercept", "preset": "long-range-intercept",  # about a tenth of a second
+         "params": {"methods": ["impulsive"], "scan": {"step_s": 2.0}}}
+LONG = {"kind": "intercept", "preset": "long-range-intercept",  # a few seconds: it is running when the link dies
+        "params": {"methods": ["impulsive"], "scan": {"step_s": 0.05}}}
+
+
+@pytest.fixture
+def hosts_stack(tmp_path):
+    hosts = {name: Host(name, links) for name, links in
+             (("a", [A]), ("b", [B]), ("api", [API_DB, API_CLIENTS]))}
+    try:
+        for h in hosts.values():
+            h.create()
+        listen = ("127.0.0.1", *(Host.server_address(n) for n in (A, B, API_DB, API_CLIENTS)))
+        pg = PostgresServer(listen=listen).start()
+        redis = RedisServer(tmp_path, listen=listen).start()
+        stack = Stack(pg, redis, tmp_path)
+        try:
+            yield stack, hosts
+        finally:
+            stack.close()
+            redis.kill()
+            pg.destroy()
+    finally:
+        for h in hosts.values():
+            h.close()
+
+
+def _urls(stack: Stack, link: int) -> dict:
+    addr = Host.server_address(link)
+    return {"TRAJLAB_DATABASE_URL": stack.pg.url.replace("127.0.0.1", addr),
+            "TRAJLAB_BROKER_URL": stack.redis.url.replace("127.0.0.1", addr)}
+
+
+def _workers_of(stack: Stack, job_ids: list[str]) -> dict[str, tuple[str, str | None, int]]:
+    with psycopg.connect(stack.pg.url.replace("+psycopg", ""), connect_timeout=5) as conn:
+        rows = conn.execute("SELECT id, status, worker, attempts FROM jobs WHERE id = ANY(%s)", (job_ids,)).fetchall()
+    return {r[0]: (r[1], r[2], r[3]) for r in rows}
+
+
+def _log_lines(stack: Stack, pattern: str) -> list[re.Match]:
+    found = []
+    for log in stack.tmp.glob("worker*.log"):
+        found += list(re.finditer(pattern, log.read_text(errors="replace")))
+    return found
+
+
+def test_a_worker_host_cut_off_longer_than_the_stale_limit_during_a_burst(hosts_stack):
+    stack, hosts = hosts_stack
+    stale_s = stack.settings.stale_after_s
+    stack.start_worker(concurrency=1, name="worker-a", env={**_urls(stack, A), **TIMEOUTS},
+                       prefix=hosts["a"].exec_prefix())
+    stack.start_worker(concurrency=1, name="worker-b", env={**_urls(stack, B), **TIMEOUTS},
+                       prefix=hosts["b"].exec_prefix())
+    stack.start_recovery()
+    accepted, codes = [], []
+    # long jobs first: each host has a slot running one when the link dies
+    accepted += [stack.submit(LONG).json()["id"] for _ in range(6)]
+    deadline = time.monotonic() + 90
+    while True:
+        on_a = [j for j, (status, worker, _) in _workers_of(stack, accepted).items()
+                if status == "running" and worker and "fault1@" in worker]
+        if on_a:
+            break
+        assert time.monotonic() < deadline, "no long job ever ran on host a"
+        time.sleep(0.2)
+    stop = threading.Event()
+
+    def burst():
+        while not stop.is_set():
+            r = stack.submit(SHORT)
+            codes.append(r.status_code)
+            if r.status_code == 202:
+                accepted.append(r.json()["id"])
+            time.sleep(0.2)
+
+    thread = threading.Thread(target=burst)
+    thread.start()
+    on_a = [j for j, (status, worker, _) in _workers_of(stack, accepted).items()
+            if status == "running" and worker and "fault1@" in worker] or on_a  # both of its pools, if both run one
+    cut_at = hosts["a"].cut(A)
+    taken_over_s = slot_free_s = None
+    while time.monotonic() - cut_at < stale_s + 12:  # longer than the stale limit
+        now = time.monotonic() - cut_at
+        if taken_over_s is None and all(s[2] > 1 and s[1] is not None and "fault1@" not in s[1]
+                                        for j, s in _workers_of(stack, on_a).items()):
+            taken_over_s = now
+        if slot_free_s is None and all(_log_lines(stack, rf"job {j} attempt 1(?: refused|: result not stored)")
+                                       for j in on_a):
+            slot_free_s = now
+        time.sleep(0.25)
+    restored_at = hosts["a"].restore(A)
+    time.sleep(3.0)
+    stop.set()
+    thread.join()
+    jobs, lost, _ = stack.outcome(accepted, timeout=90)
+    if slot_free_s is None and all(_log_lines(stack, rf"job {j} attempt 1(?: refused|: result not stored)")
+                                   for j in on_a):
+        slot_free_s = time.monotonic() - cut_at  # freed only after the link came back (an upper bound)
+    stored = Counter(m.group(1) for m in _log_lines(stack, r"job ([0-9a-f]{32}) attempt \d+ stored: "))
+    twice = [j for j in accepted if stored[j] > 1]
+    ran_on = {host: len(re.findall(r"attempt \d+ started", (stack.tmp / f"worker-{host}.log").read_text(errors="replace")))
+              for host in ("a", "b")}
+    report("worker-host-cut", accepted=len(accepted), answered=len(codes), lost=len(lost), stored_twice=len(twice),
+           started_on_a=ran_on["a"], started_on_b=ran_on["b"], cut_s=restored_at - cut_at, taken_over=len(on_a), takeover_s=taken_over_s or -1.0,
+           slot_free_s=slot_free_s or -1.0, stale_after_s=stale_s)
+    assert ran_on["a"] > 0 and ran_on["b"] > 0  # jobs ran on both hosts
+    assert set(codes) == {202}, Counter(codes)  # the API never noticed: host a was cut, not the API
+    assert not lost, [jobs.get(j) for j in lost[:3]]
+    assert not twice and all(stored[j] == 1 for j in accepted)
+    # the reaper re-queues after stale_after_s (its loop runs every second) and host b claims it at once
+    assert taken_over_s is not None and taken_over_s < stale_s + 10
+    # the cut host gave its slot up: the long job's remaining seconds, then stale_after_s of store retries,
+    # each call bounded (CALL_BOUND_S)
+    assert slot_free_s is not None and slot_free_s < stale_s + CALL_BOUND_S + 15
+    assert all(jobs[j]["attempts"] == 1 for j in accepted if j not in on_a)
+
+
+def test_the_api_cut_from_its_database_answers_503_with_retry_after(hosts_stack):
+    stack, hosts = hosts_stack
+    api = hosts["api"]
+    port = free_port()
+    env = {**stack.env, **TIMEOUTS, "TRAJLAB_DATABASE_URL": stack.pg.url.replace("127.0.0.1", Host.server_address(API_DB)),
+           "TRAJLAB_BROKER_URL": stack.redis.url.replace("127.0.0.1", Host.server_address(API_CLIENTS)),
+           "TRAJLAB_API_WORKERS": "1"}
+    proc = subprocess.Popen([*api.exec_prefix(), sys.executable, "-m", "app.cli.commands", "api", "--host",
+                             Host.address(API_CLIENTS), "--port", str(port)], cwd=ROOT, env=env,
+                            stdout=open(stack.tmp / "api.log", "ab"), stderr=subprocess.STDOUT, start_new_session=True)
+    base = f"http://{Host.address(API_CLIENTS)}:{port}"
+    try:
+        with httpx.Client(base_url=base, timeout=60) as client:
+            deadline = time.monotonic() + 60
+            while True:
+                try:
+                    if client.get("/v1/jobs").status_code == 200:
+                        break
+                except httpx.TransportError:
+                    pass
+                assert time.monotonic() < deadline, (stack.tmp / "api.log").read_text()[-2000:]
+                time.sleep(0.3)
+            assert client.post("/v1/jobs", json=SHORT).status_code == 202
+            api.cut(API_DB)
+            answers = []
+            for i in range(8):
+                t0 = time.monotonic()
+                r = client.post("/v1/jobs", json=SHORT) if i % 2 else client.get("/v1/jobs")
+                answers.append((r.status_code, r.headers.get("Retry-After"), time.monotonic() - t0))
+            restored_at = api.restore(API_DB)
+            deadline = time.monotonic() + 30
+            while client.get("/v1/jobs").status_code != 200:
+                assert time.monotonic() < deadline, "the API did not come back after the link"
+                time.sleep(0.5)
+            back_s = time.monotonic() - restored_at
+    finally:
+        stop_group(proc)
+    slowest = max(a[2] for a in answers)
+    report("api-cut-from-database", requests=len(answers), http_503=sum(a[0] == 503 for a in answers),
+           slowest_answer_s=slowest, back_after_restore_s=back_s)
+    assert all(code == 503 and retry_after for code, retry_after, _ in answers), answers
+    assert slowest < CALL_BOUND_S + 5, answers  # bounded by the timeouts, not hung
