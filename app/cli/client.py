@@ -22,6 +22,9 @@ FINAL_STATUSES = ("succeeded", "failed", "cancelled")
 DEFAULT_URL = "http://127.0.0.1:8000"
 
 
+EVENTS_READ_TIMEOUT_S = 45.0  # three of the event stream's 15 s pings
+
+
 class TrajlabError(Exception):
     """An HTTP error answer of the service, with its one-line message."""
 
@@ -123,7 +126,9 @@ class Client:
     def events(self, job_id: str, *, last_event_id: str | None = None) -> Iterator[dict]:
         """The job's events until its final one (``event == "end"``)."""
         headers = {**self.headers, **({"Last-Event-ID": last_event_id} if last_event_id else {})}
-        with self.http.stream("GET", f"/v1/jobs/{job_id}/events", headers=headers, timeout=None) as r:
+        # the stream sends a ping every 15 s (app.api.routes.events): 45 s of silence is a dead link
+        with self.http.stream("GET", f"/v1/jobs/{job_id}/events", headers=headers,
+                              timeout=httpx.Timeout(30.0, read=EVENTS_READ_TIMEOUT_S)) as r:
             if r.status_code >= 400:
                 r.read()
                 msg, body = _message(r)
