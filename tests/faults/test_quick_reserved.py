@@ -6,7 +6,7 @@ import time
 
 import pytest
 
-from tests.faults.conftest import QUICK, report
+from tests.faults.conftest import report
 
 pytestmark = [pytest.mark.integration, pytest.mark.faults]
 
