@@ -21,6 +21,7 @@ from fastapi.concurrency import run_in_threadpool
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
 from app.api import auth, key_attempts
+from app.api.observability import AUTH_FAILURES
 from app.service import jobs
 from app.runtime.db import Database
 from app.runtime.models import Job
@@ -67,11 +68,13 @@ def _key_principal(request: Request, credentials: HTTPAuthorizationCredentials |
     address = request.client.host if request.client is not None else ""
     wait_s = attempts.retry_after_s(address)
     if wait_s is not None:  # refused before the lookup: guessing costs no database read
+        AUTH_FAILURES.labels("refused").inc()
         raise HTTPException(status_code=429, headers={"Retry-After": str(wait_s)},
                             detail=f"too many failed API-key attempts from this address; retry in {wait_s} s")
     key = auth.authenticate(request.app.state.db, credentials.credentials)
     if key is None:
         attempts.failed(address)
+        AUTH_FAILURES.labels("invalid").inc()
         raise _unauthorized("unknown or revoked API key", error="invalid_token")
     return Principal(owner=key.owner, admin=key.admin)
 

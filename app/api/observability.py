@@ -39,6 +39,10 @@ LATENCY = Histogram("trajlab_http_request_duration_seconds",
                     "Time to the response's last byte, by method, route template and status",
                     ["method", "route", "status"], registry=HTTP_REGISTRY,
                     buckets=(0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1, 2.5, 5, 10))
+# failed API-key attempts (app.api.key_attempts): "invalid" an unknown or revoked key (a 401),
+# "refused" an address past the limit (a 429 before any lookup)
+AUTH_FAILURES = Counter("trajlab_auth_failures", "Failed API-key attempts: invalid keys and refused addresses",
+                        ["outcome"], registry=HTTP_REGISTRY)
 UNMATCHED = "unmatched"  # no route: one label value, not one per path a scanner tries
 
 

@@ -59,10 +59,18 @@ def test_json_responses_say_nosniff_and_no_html_headers(client):
 
 
 def test_failed_keys_are_rate_limited_per_address_with_retry_after(client):
+    from app.api.observability import HTTP_REGISTRY
+
+    def counted(outcome):
+        return HTTP_REGISTRY.get_sample_value("trajlab_auth_failures_total", {"outcome": outcome}) or 0.0
+
+    before = counted("invalid"), counted("refused")
     bad = {"Authorization": "Bearer tl_not-a-key"}
     assert [client.get("/v1/jobs", headers=bad).status_code for _ in range(3)] == [401] * 3
     r = client.get("/v1/jobs", headers=bad)
     assert r.status_code == 429 and 1 <= int(r.headers["Retry-After"]) <= 600
+    # both kinds of failure are counted in the metrics (trajlab_auth_failures_total{outcome})
+    assert (counted("invalid") - before[0], counted("refused") - before[1]) == (3.0, 1.0)
     # the address is refused whatever key it sends now, before any lookup; a missing key is still a 401
     assert client.get("/v1/jobs", headers={"Authorization": f"Bearer {client.key}"}).status_code == 429
     assert client.get("/v1/jobs").status_code == 401
