@@ -21,6 +21,7 @@ from solvers.ocp.limits import hold_path_limits
 from solvers.ocp.phase import PhaseNLP, positive_scale
 from solvers.ocp.spec import OcpProblem
 from solvers.ocp.symbolic import PhaseFunctions, phase_functions
+from solvers.ocp.terminal import TERMINAL_ROUNDS, TERMINAL_TOLERANCE, finer, grid_words, terminal_checks
 from solvers.ocp.verify import Verification, verify
 
 _FUNCTIONS: dict[tuple, PhaseFunctions] = {}
@@ -240,8 +241,29 @@ def solve(problem: OcpProblem, *, initial_guess: dict | None = None, on_progress
           should_stop: StopFn | None = None, seed: int | None = None, ipopt: dict | None = None) -> OcpSolution:
     """Solve one phase (module docstring).  ``initial_guess``: a stored ``ocp`` result (its
     ``trajectory``, ``tf`` and ``parameters``) interpolated onto this grid.  ``seed`` is accepted
-    for the common protocol; nothing here is random."""
+    for the common protocol; nothing here is random.  A final value missed on the re-flight is
+    solved again on a finer grid (:mod:`solvers.ocp.terminal`), warm-started from the answer."""
     del seed
+    sol = _solve_on_grid(problem, initial_guess=initial_guess, on_progress=on_progress, should_stop=should_stop,
+                         ipopt=ipopt)
+    refinements = []
+    while sol.status.outcome is Outcome.TERMINAL_NOT_HELD and len(refinements) < TERMINAL_ROUNDS:
+        nxt = finer(problem)
+        if nxt is None:
+            break
+        refinements.append(f"{grid_words(problem)} -> {grid_words(nxt)}")
+        warm = {"trajectory": sol.trajectory, "tf": sol.tf, "parameters": sol.parameters}
+        problem = nxt
+        sol = _solve_on_grid(problem, initial_guess=warm, on_progress=on_progress, should_stop=should_stop,
+                             ipopt=ipopt)
+    if refinements:
+        sol.notes.insert(0, "terminal conditions missed on the re-flight, grid refined (warm-started): "
+                         + "; ".join(refinements) + f"; now {'held' if sol.verification['terminal_held'] else 'NOT held'}")
+        sol.solver["terminal_refinements"] = refinements
+    return sol
+
+
+def _solve_on_grid(problem: OcpProblem, *, initial_guess, on_progress, should_stop, ipopt) -> OcpSolution:
     progress = on_progress or (lambda f, m: None)
     t_start = time.perf_counter()
     progress(0.0, "building the NLP")
@@ -280,6 +302,14 @@ def solve(problem: OcpProblem, *, initial_guess: dict | None = None, on_progress
         worst = {k: v["excess_scaled"] for k, v in ver.path.items() if not v["held"]}
         status.message = (f"converged, but path limits are exceeded between the nodes after {len(rounds)} "
                           f"tightening rounds: worst scaled excess {worst}")
+    terminal = terminal_checks(problem=problem, fns=fns, x_scale=num.x_scale, c=num.p[:fns.nc], theta=att.theta,
+                               tf=att.tf, x=ver.x, u=ver.u) if ver.ok else {}
+    terminal_held = all(c["held"] for c in terminal.values())
+    if status.ok and not terminal_held:
+        status.outcome = Outcome.TERMINAL_NOT_HELD
+        missed = {k: f"{v['miss']:.3g} (tolerance {v['tolerance']:.3g})" for k, v in terminal.items() if not v["held"]}
+        status.message = (f"converged on {grid_words(problem)}, but the re-flight misses terminal conditions: "
+                          f"{missed}")
     status.details = {**status.details, "limit_rounds": rounds, "solver_cached": nlp.was_cached}
     agreement = problem.accuracy or AGREEMENT_TOLERANCE
     worst = max(ver.max_scaled_difference.values(), default=0.0)
@@ -294,7 +324,8 @@ def solve(problem: OcpProblem, *, initial_guess: dict | None = None, on_progress
                      f"them: {len(rounds)} round(s), limits {'held' if ver.limits_held else 'NOT held'}")
     progress(1.0, status.outcome.value)
     sol = _solution(problem, nlp, num, att, ver, status, notes)
-    sol.verification.update(agrees=agrees, agreement_tolerance=agreement)
+    sol.verification.update(agrees=agrees, agreement_tolerance=agreement, terminal=terminal,
+                            terminal_held=terminal_held, terminal_tolerance=TERMINAL_TOLERANCE)
     return sol
 
 
