@@ -6,7 +6,8 @@ cut off (link down) for longer than the stale limit in the middle of a burst, th
 is lost, none is stored twice, its job is taken over within the stated time, and its slot is free
 again within the store-retry bound (``stale_after_s`` plus one bounded database call).  Then an API
 on a third host whose database link is cut answers 503 with ``Retry-After`` at once, never a hung
-request.  The figures are printed (``pytest -s``).  Root only (``ip netns``).
+request.  A study's points spread over both hosts, each stored once.  The figures are printed
+(``pytest -s``).  Root only (``ip netns``).
 """
 from __future__ import annotations
 
@@ -198,3 +199,31 @@ def test_the_api_cut_from_its_database_answers_503_with_retry_after(hosts_stack)
            slowest_answer_s=slowest, back_after_restore_s=back_s)
     assert all(code == 503 and retry_after for code, retry_after, _ in answers), answers
     assert slowest < CALL_BOUND_S + 5, answers  # bounded by the timeouts, not hung
+
+
+def test_a_study_runs_across_two_worker_hosts(hosts_stack):
+    """A study's points are ordinary jobs: with four points queued at once and two single-slot
+    pools on each host (prefetch 1), both hosts take points; every point is stored once."""
+    stack, hosts = hosts_stack
+    for name, link in (("a", A), ("b", B)):
+        stack.start_worker(concurrency=1, name=f"worker-{name}", env={**_urls(stack, link), **TIMEOUTS},
+                           prefix=hosts[name].exec_prefix())
+    stack.start_recovery()
+    body = {**LONG, "mode": "independent", "label": "across hosts",
+            "sweeps": [{"path": "scan.step_s", "values": [0.05, 0.06, 0.07, 0.08]}]}
+    r = stack.client.post("/v1/studies", json=body)
+    assert r.status_code == 202, r.text
+    study_id = r.json()["id"]
+    deadline = time.monotonic() + 180
+    while (study := stack.client.get(f"/v1/studies/{study_id}").json())["status"] == "running":
+        assert time.monotonic() < deadline, study
+        time.sleep(0.5)
+    rows = stack.client.get(f"/v1/studies/{study_id}/result").json()["rows"]
+    ids = [row["job_id"] for row in rows]
+    stored = Counter(m.group(1) for m in _log_lines(stack, r"job ([0-9a-f]{32}) attempt \d+ stored: "))
+    hosts_of = {j: ("a" if "fault1@" in w else "b") for j, (_, w, _) in _workers_of(stack, ids).items()}
+    report("study-across-hosts", points=len(rows), on_a=sum(h == "a" for h in hosts_of.values()),
+           on_b=sum(h == "b" for h in hosts_of.values()))
+    assert study["status"] == "finished" and [row["status"] for row in rows] == ["succeeded"] * 4, rows
+    assert all(stored[j] == 1 for j in ids), stored
+    assert set(hosts_of.values()) == {"a", "b"}, hosts_of
