@@ -151,7 +151,8 @@ class ServiceCollector(Collector):
             pipe.llen(queue)
         for name in HISTOGRAMS:
             pipe.hgetall(PREFIX + name)
-        counters, heartbeat, *rest = pipe.execute()
+        pipe.info("memory")
+        counters, heartbeat, *rest, memory = pipe.execute()
         depths, histograms = rest[:len(QUEUES)], rest[len(QUEUES):]
         counters = {k.decode(): int(v) for k, v in counters.items()}
         for field, (name, text) in EVENTS.items():
@@ -163,6 +164,11 @@ class ServiceCollector(Collector):
         for queue, n in zip(QUEUES, depths):
             depth.add_metric([queue], n)
         yield depth
+        # a broker that runs out of memory refuses writes (every submission then fails): alert before
+        yield GaugeMetricFamily("trajlab_broker_memory_used_bytes", "Memory the broker (Redis) uses",
+                                value=float(memory.get("used_memory", 0)))
+        yield GaugeMetricFamily("trajlab_broker_maxmemory_bytes", "The broker's maxmemory (0: no limit)",
+                                value=float(memory.get("maxmemory", 0)))
         for (name, (text, bounds)), raw in zip(HISTOGRAMS.items(), histograms):
             yield self._histogram(name, text, bounds, {k.decode(): float(v) for k, v in raw.items()})
 

@@ -75,6 +75,9 @@ def test_metrics_through_prometheus(ops):
     assert ops.value("trajlab_worker_restarts_total") >= 1
     assert ops.value("trajlab_jobs_reaped_total") == 0
     assert ops.value("trajlab_jobs_republished_total") == 0
+    # the broker's memory, read from Redis at scrape time (its maxmemory: 0 when it has none)
+    assert ops.value("trajlab_broker_memory_used_bytes") > 0
+    assert ops.value("trajlab_broker_maxmemory_bytes") >= 0
     beat = ops.value("trajlab_recovery_heartbeat_timestamp_seconds")
     assert beat is not None and beat >= started - 5
     info = ops.query("trajlab_build_info")
