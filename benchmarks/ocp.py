@@ -1,7 +1,7 @@
 """The ``ocp`` kind against the same problems written by hand in CasADi ``Opti``, same process, same grid.
 
 Run ``python -m benchmarks.ocp`` (``--only brachistochrone,goddard-rocket``, ``--reps 3``,
-``--save`` to merge the figures into ``benchmarks/results/latest.json``).
+``--no-save`` to keep them out of ``benchmarks/results/latest.json``).
 
 Issue 24 item 7: at these sizes building the NLP costs more than solving it, so the target is on
 build + solve: trajlab within 1.2x of the faster hand-written form on the same grid.
@@ -25,8 +25,11 @@ best of ``--reps``; this machine's 2 shared cores make single runs noisy.
 * **reentry kind** (betts-shuttle-ocp only): the ``reentry`` kind's own solve of the same problem
   against the ocp kind's whole solve (both with their verification; target within 2x).
 
-Dymos is not run here: its shuttle runs in benchmarks.reentry, and without pyOptSparse only SLSQP
-drives it, no fair baseline (the issue's figures: Dymos Gauss-Lobatto 1.06 s on the brachistochrone).
+* **Dymos** 1.15.1 (``--dymos gl,radau``, off by default: on this machine Radau takes minutes on
+  Goddard): Gauss-Lobatto and Radau on the same number of segments, IPOPT through cyipopt in
+  place of SLSQP (``benchmarks.ocp_dymos``; pyOptSparse has no wheel here; cyipopt builds against
+  Debian's IPOPT: ``apt-get install coinor-libipopt-dev liblapack-dev``, ``pip install cyipopt==1.7.0``).  Presets with a
+  Mayer term on tf or one final state, or bryson-denham's integral.
 """
 from __future__ import annotations
 
@@ -322,7 +325,9 @@ def main() -> int:
     ap.add_argument("--only", help="comma-separated presets")
     ap.add_argument("--reps", type=int, default=3)
     ap.add_argument("--skip-rockit", action="store_true")
-    ap.add_argument("--save", action="store_true", help="merge the figures into benchmarks/results/latest.json")
+    ap.add_argument("--dymos", default="", help="Dymos transcriptions to run: gl, radau or gl,radau")
+    ap.add_argument("--no-save", dest="save", action="store_false",
+                    help="do not merge the figures into benchmarks/results/latest.json")
     args = ap.parse_args()
     names = args.only.split(",") if args.only else list(HAND)
     figures = {}
@@ -339,6 +344,13 @@ def main() -> int:
         rk = None if args.skip_rockit else best(lambda name=name: rockit_baseline(name) or {"total_s": float("nan")}, args.reps)
         if rk is not None and "status" in rk:
             rows.append(("rockit", rk, rk["total_s"]))
+        dymos = {}
+        for tx in filter(None, args.dymos.split(",")):
+            from benchmarks.ocp_dymos import dymos_baseline
+            d = dymos_baseline(name, tx, _setup)   # once: a Dymos solve takes seconds to minutes
+            if d is not None:
+                dymos[tx] = d
+                rows.append((f"Dymos {tx}", d, d["total_s"]))
         for form, r, bs in rows:
             print(f"{name:<19}{form:<10}{grid.intervals:>6}{r['build_s']:>9.3f}{r['ipopt_s']:>9.3f}{bs:>8.3f}"
                   f"{r['iterations']:>6}{r['objective']:>14.7g}{bs / faster:>7.2f}  {r['status']}")
@@ -346,7 +358,7 @@ def main() -> int:
               f"target build+solve <= 1.2x the faster hand-written form: "
               f"{'met' if ours_bs <= 1.2 * faster else 'MISSED'} ({ours_bs / faster:.2f}x)")
         figures[name] = {"intervals": grid.intervals, "trajlab": ours, "opti_ms": ms, "opti_hs": hs,
-                         "rockit": rk, "ratio_vs_faster_hand_written": ours_bs / faster}
+                         "rockit": rk, "dymos": dymos, "ratio_vs_faster_hand_written": ours_bs / faster}
         if name == "betts-shuttle-ocp":
             figures[name]["reentry_kind"] = reentry_kind_ratio(ours, args.reps)
     if args.save:
