@@ -6,10 +6,10 @@ loading numpy or CasADi; :func:`solve` and :class:`OcpSolution` are loaded on fi
 (PEP 562), together with CasADi.
 
 Modules: ``expressions`` (the safe grammar), ``problem`` (the typed dataclasses), ``spec``
-(params -> :class:`OcpProblem`), ``cases`` (presets with published optima); with CasADi:
+(params -> :class:`OcpProblem`, with ``fields``: the readers of single fields and sections), ``cases`` (presets with published optima); with CasADi:
 ``symbolic`` (tree -> SX), ``phase`` (one phase -> a cached NLP, multiple shooting or LGL, with
 block derivatives), ``verify`` (DOP853 re-flight), ``limits`` (limits that hold between the
-nodes), ``solver`` (:func:`solve`).
+nodes), ``terminal`` (final values that hold on the re-flight), ``solver`` (:func:`solve`).
 """
 from __future__ import annotations
 
