@@ -36,9 +36,12 @@ class OcpResultSolver(ResultModel):
     limit_rounds: list[dict[str, Any]] | None = Field(
         None, description="Rounds of tightening path limits that the dense re-flight found exceeded between "
         "the nodes, each re-solved warm (empty: none needed)")
+    terminal_refinements: list[str] | None = Field(
+        None, description="Finer grids solved, warm-started, because the re-flight missed a terminal "
+        "condition (e.g. '100 intervals x 2 RK4 steps -> 100 intervals x 4 RK4 steps'); absent: none needed")
     status: str = Field(description="The NLP solver's own status word, e.g. IPOPT's Solve_Succeeded")
     outcome: str | None = Field(None, description="What became of the solve: optimal, infeasible, "
-                                "not_converged, limit_not_held, cancelled, failed")
+                                "not_converged, limit_not_held, terminal_not_held, cancelled, failed")
     message: str | None = Field(None, description="The solver's message")
     iterations: int = Field(description="NLP iterations, all solves")
     build_time_s: Num = Field(description="Time to build the NLP (s); ~0 when the structure was cached")
@@ -59,6 +62,19 @@ class OcpResultPathCheck(ResultModel):
     held: bool | None = Field(None, description="Within the bounds to the tolerance on the whole dense grid")
 
 
+class OcpResultTerminalCheck(ResultModel):
+    """One terminal condition on the re-flight: a fixed final value or a boundary constraint."""
+
+    requested: Num = Field(None, description="The fixed final value asked for (final(state) checks)")
+    lower: Num = Field(None, description="The boundary constraint's lower bound (null: none)")
+    upper: Num = Field(None, description="The boundary constraint's upper bound (null: none)")
+    reflown: Num = Field(None, description="The value on the re-flown trajectory")
+    miss: Num = Field(None, description="How far the re-flown value is from the request or the bounds")
+    tolerance: Num = Field(None, description="The miss still counted as held: terminal_tolerance times the "
+                           "state's scale, or what that miss in every state moves the constraint")
+    held: bool | None = Field(None, description="miss <= tolerance")
+
+
 class OcpResultVerification(ResultModel):
     """The controls re-flown by an independent integrator on a dense grid, against the solution."""
 
@@ -77,6 +93,11 @@ class OcpResultVerification(ResultModel):
                                                        "on the dense grid")
     limits_held: bool | None = Field(None, description="Every path constraint held on the dense grid")
     limit_tolerance: Num = Field(None, description="Scaled excess still counted as held")
+    terminal: dict[str, OcpResultTerminalCheck] | None = Field(
+        None, description="'final(state)' or a boundary constraint's name -> its check on the re-flight")
+    terminal_held: bool | None = Field(None, description="Every terminal condition held on the re-flight")
+    terminal_tolerance: Num = Field(None, description="Miss still counted as held, as a fraction of each "
+                                    "state's scale")
     ok: bool | None = Field(None, description="The integrator reached the final time")
     message: str | None = Field(None, description="The integrator's message (empty when ok)")
 
