@@ -170,12 +170,19 @@ class PhaseNLP:
     2-3x cheaper per iteration than CasADi's forward-over-reverse sweeps through the MX graph.
     """
 
-    def __init__(self, problem: OcpProblem, fns: PhaseFunctions, *, ipopt: dict | None = None):
+    def __init__(self, problem: OcpProblem, fns: PhaseFunctions, *, ipopt: dict | None = None,
+                 build: bool = True):
+        """``build=False``: the layout and the elements only, no solver (a block of the
+        multi-phase NLP, :mod:`solvers.ocp.multiphase`)."""
         self.fns, self.grid = fns, grid_of(problem)
         self.sign = -1.0 if problem.objective.sense == "maximize" else 1.0
         g = self.grid
         self.nz = 1 + fns.ntheta + fns.nx * g.n_nodes + fns.nu * g.n_controls
         self.np_ = fns.nc + 1 + fns.nx + fns.nu + 1 + fns.ntheta + fns.npath + fns.nboundary + 1
+        if not build:
+            self.solver, self.was_cached = None, False
+            self.layout = [(el.name, el.ny * el.count) for el in self.elements() if el.ny]
+            return
         key = ("ocp", problem.structure(), BLOCKS, tuple(sorted((ipopt or {}).items())))
         self.solver, self.was_cached = cached_solver(key, lambda: self._build(ipopt or {}))
         self.layout = self.solver.ocp_layout
@@ -265,23 +272,33 @@ class PhaseNLP:
         out.append(Element("boundary", fn, cols[None, :], np.zeros(1)))
         return out
 
+    def elements(self) -> list[Element]:
+        """The phase's elements on its own decision vector (``[tf, theta, X, U]``, scaled)."""
+        return self._elements()
+
     def _build(self, ipopt: dict) -> NLPSolver:
-        z, p = ca.MX.sym("z", self.nz), ca.MX.sym("p", self.np_)
-        elements = self._elements()
-        parts, layout, f = [], [], 0
-        for el in elements:
-            W = ca.reshape(z[el.cols.ravel().tolist()], el.cols.shape[1], el.count)
-            Y, F = el.fn.map(el.count, "serial")(W, p, ca.DM(el.kvals).T)
-            if el.has_f:      # else the gradient of f would sweep back through every interval
-                f = f + ca.sum2(F)
-            if el.ny:
-                parts.append(ca.vec(Y))
-                layout.append((el.name, el.ny * el.count))
-        nlp = {"x": z, "p": p, "f": f, "g": ca.vertcat(*parts)}
-        blocks = ElementBlocks(nlp, elements) if BLOCKS else None
-        solver = NLPSolver(nlp, name=f"ocp_{self.grid.method}", ipopt=ipopt, blocks=blocks)
-        solver.ocp_layout = layout
-        return solver
+        return solver_of_elements(self._elements(), nz=self.nz, np_=self.np_, name=f"ocp_{self.grid.method}",
+                                  ipopt=ipopt)
+
+
+def solver_of_elements(elements: list[Element], *, nz: int, np_: int, name: str, ipopt: dict) -> NLPSolver:
+    """The IPOPT solver of a sum of elements (their constraints stacked in order), its
+    ``ocp_layout`` the ``(name, rows)`` of each element with constraints."""
+    z, p = ca.MX.sym("z", nz), ca.MX.sym("p", np_)
+    parts, layout, f = [], [], 0
+    for el in elements:
+        W = ca.reshape(z[el.cols.ravel().tolist()], el.cols.shape[1], el.count)
+        Y, F = el.fn.map(el.count, "serial")(W, p, ca.DM(el.kvals).T)
+        if el.has_f:      # else the gradient of f would sweep back through every interval
+            f = f + ca.sum2(F)
+        if el.ny:
+            parts.append(ca.vec(Y))
+            layout.append((el.name, el.ny * el.count))
+    nlp = {"x": z, "p": p, "f": f, "g": ca.vertcat(*parts)}
+    blocks = ElementBlocks(nlp, elements) if BLOCKS else None
+    solver = NLPSolver(nlp, name=name, ipopt=ipopt, blocks=blocks)
+    solver.ocp_layout = layout
+    return solver
 
 
 def _nz(expr: ca.SX) -> ca.SX:
