@@ -14,6 +14,7 @@ from app.api.access import PrincipalDep, not_found, visible_job
 from app.api.deps import DatabaseDep
 from app.kinds import KINDS, PRESETS
 from app.api.params import resolve_params
+from app.api.warm_start import check_warm_starts
 from app.results.compact import compact
 from app.api.result_body import JobResult, result_json
 from app.api.schemas import (ErrorBody, JobList, JobOut, JobStatus, JobSubmission, NotSucceededBody,
@@ -62,6 +63,7 @@ def submit_job(
     overrides = submission.params.model_dump(exclude_unset=True) if submission.params is not None else None
     preset_params = PRESETS[submission.preset].params if submission.preset else None
     params = resolve_params(spec, preset_params, overrides)
+    check_warm_starts(db, kind=submission.kind, params=params, principal=principal)
     request_hash = None
     if idempotency_key is not None:
         body = submission.model_dump(mode="json", exclude_unset=True)

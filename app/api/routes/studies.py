@@ -17,6 +17,7 @@ from app.service.recovery import publish_or_defer
 from app.api.deps import CeleryDep, DatabaseDep, SettingsDep
 from app.kinds import KINDS, PRESETS
 from app.api.params import deep_merge, resolve_params
+from app.api.warm_start import check_warm_starts
 from app.service.study_presets import STUDY_PRESETS
 
 router = APIRouter(prefix="/v1/studies", tags=["studies"])
@@ -114,6 +115,7 @@ def submit_study(body: Annotated[StudySubmission, Body(openapi_examples={
     spec = KINDS[spec_body["kind"]]
     preset_params = PRESETS[spec_body["preset"]].params if spec_body.get("preset") else None
     base = resolve_params(spec, preset_params, spec_body.get("params"))
+    check_warm_starts(db, kind=spec.kind, params=base, principal=principal)
     try:
         points = studies.expand(base, spec_body["sweeps"])
     except KeyError as exc:
