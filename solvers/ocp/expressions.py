@@ -3,7 +3,10 @@
 The grammar is Python's expression grammar cut down by an allow-list (``../shared/specs/ocp.md``,
 "The expression language"): numbers, declared names, ``+ - * / **``, unary minus and plus,
 parentheses, calls of the functions in :data:`FUNCTIONS` and of declared tables, and
-``initial(name)`` / ``final(name)`` where the caller allows them (boundary and objective).
+``initial(name)`` / ``final(name)`` where the caller allows them (boundary and objective); in a
+multi-phase problem's top-level events (``objective``, ``links``) ``initial(name, "phase")``,
+``final(name, "phase")``, ``t0("phase")`` and ``tf("phase")``, where a string literal is allowed
+as the phase argument of these four calls and nowhere else.
 ``ast.parse(mode="eval")`` gives the tree; every node type outside the allow-list is an
 :class:`OcpInputError` naming the field path and the construct.  The text is never handed to
 ``eval``, ``exec``, ``compile`` to code objects or any parser that evaluates (as OpenMDAO's
@@ -82,14 +85,24 @@ class Call:
 
 @dataclass(frozen=True, slots=True)
 class Boundary:
-    """``initial(name)`` or ``final(name)``: a state's (or control's) value at an end of the phase."""
+    """``initial(name)`` or ``final(name)``: a state's (or control's) value at an end of the phase;
+    ``initial(name, "phase")`` names the phase (multi-phase events)."""
 
     which: str          # "initial" | "final"
     name: str
     kind: str           # "state" | "control"
+    phase: str = ""     # "" in a single phase
 
 
-Expr = Union[Num, Name, Neg, BinOp, Call, Boundary]  # noqa: UP007 (a runtime alias)
+@dataclass(frozen=True, slots=True)
+class EventTime:
+    """``t0("phase")`` or ``tf("phase")``: a phase's initial or final time (multi-phase events)."""
+
+    which: str          # "t0" | "tf"
+    phase: str
+
+
+Expr = Union[Num, Name, Neg, BinOp, Call, Boundary, EventTime]  # noqa: UP007 (a runtime alias)
 
 
 def walk(node: Expr):
@@ -117,7 +130,9 @@ def to_text(node: Expr) -> str:
     if isinstance(node, Name):
         return node.name
     if isinstance(node, Boundary):
-        return f"{node.which}({node.name})"
+        return f'{node.which}({node.name},"{node.phase}")' if node.phase else f"{node.which}({node.name})"
+    if isinstance(node, EventTime):
+        return f'{node.which}("{node.phase}")'
     if isinstance(node, Neg):
         return f"(-{to_text(node.operand)})"
     if isinstance(node, BinOp):
@@ -131,12 +146,14 @@ class Scope:
     """What an expression may refer to: ``names`` name -> kind (``constant``, ``state``, ``control``,
     ``parameter``, ``expression``, ``time``), ``tables`` name -> dimension, ``boundary``: whether
     ``initial()``/``final()`` may appear (and bare states and controls may not), ``where``: words for
-    the messages (``"dynamics"``)."""
+    the messages (``"dynamics"``), ``phases``: in a multi-phase problem's top-level events, phase
+    name -> (its state and control names -> kind): the event functions then name the phase."""
 
     names: Mapping[str, str]
     tables: Mapping[str, int]
     boundary: bool = False
     where: str = "this field"
+    phases: Mapping[str, Mapping[str, str]] | None = None
 
 
 def closest(name: str, candidates) -> str | None:
@@ -216,6 +233,13 @@ class _Converter:
         if nm == "pi":
             return Num(math.pi)
         kind = scope.names.get(nm)
+        if kind is None and scope.phases is not None:
+            if nm in ("t0", "tf"):
+                self.fail(node, f"several phases: write {nm}(\"phase\") naming the phase")
+            owner = next((ph for ph, decl in scope.phases.items() if nm in decl), None)
+            if owner is not None:
+                self.fail(node, f"'{nm}' has no single value in {scope.where}: write initial({nm}, "
+                                f"\"{owner}\") or final({nm}, \"{owner}\")")
         if kind is None:
             if nm in FUNCTIONS or nm in scope.tables or nm in BOUNDARY_FUNCTIONS:
                 self.fail(node, f"function '{nm}' used as a value")
@@ -235,6 +259,8 @@ class _Converter:
         if any(isinstance(a, ast.Starred) for a in node.args):
             self.fail(node, "starred arguments are not allowed")
         fn, nargs = node.func.id, len(node.args)
+        if self.scope.phases is not None and (fn in BOUNDARY_FUNCTIONS or fn in ("t0", "tf")):
+            return self.event(node, fn)
         if fn in BOUNDARY_FUNCTIONS:
             if not self.scope.boundary:
                 self.fail(node, f"{fn}() is allowed only in boundary constraints and the objective's "
@@ -264,3 +290,33 @@ class _Converter:
         suggestion = closest(fn, list(FUNCTIONS) + list(self.scope.tables))
         hint = f"; did you mean '{suggestion}'?" if suggestion else ""
         self.fail(node, f"unknown function '{fn}'{hint}")
+
+    def phase_of(self, node: ast.AST, arg: ast.AST, fn: str) -> str:
+        """The phase a multi-phase event call names: its string literal (the only place one may be)."""
+        phases = self.scope.phases
+        if not (isinstance(arg, ast.Constant) and isinstance(arg.value, str)):
+            self.fail(node, f"{fn}() names its phase by a string literal, e.g. \"{next(iter(phases), 'phase')}\"")
+        if arg.value not in phases:
+            suggestion = closest(arg.value, list(phases))
+            hint = f"; did you mean '{suggestion}'?" if suggestion else ""
+            self.fail(arg, f"unknown phase '{arg.value[:64]}'{hint}")
+        return arg.value
+
+    def event(self, node: ast.Call, fn: str) -> Expr:
+        """``initial(x, "phase")``, ``final(x, "phase")``, ``t0("phase")``, ``tf("phase")``."""
+        if not self.scope.boundary:
+            self.fail(node, f"{fn}() is allowed only in the objective's expr and links, not in {self.scope.where}")
+        if fn in ("t0", "tf"):
+            if len(node.args) != 1:
+                self.fail(node, f"{fn}() takes one argument, the phase's name as a string")
+            return EventTime(fn, self.phase_of(node, node.args[0], fn))
+        if len(node.args) != 2 or not isinstance(node.args[0], ast.Name):
+            self.fail(node, f"{fn}() takes a state or control name and the phase's name: {fn}(x, \"phase\")")
+        phase = self.phase_of(node, node.args[1], fn)
+        arg, declared = node.args[0].id, self.scope.phases[phase]
+        kind = declared.get(arg)
+        if kind not in ("state", "control"):
+            suggestion = closest(arg, list(declared))
+            hint = f"; did you mean '{suggestion}'?" if suggestion else ""
+            self.fail(node, f"{fn}() of '{arg}', which is not a state or control of phase '{phase}'{hint}")
+        return Boundary(fn, arg, kind, phase)

@@ -22,7 +22,7 @@ import casadi as ca
 import numpy as np
 
 from solvers.models.tables import clamp
-from solvers.ocp.expressions import BinOp, Boundary, Expr, Name, Neg, Num
+from solvers.ocp.expressions import BinOp, Boundary, EventTime, Expr, Name, Neg, Num
 from solvers.ocp.spec import OcpProblem, TableDecl
 
 _UNARY = {
@@ -48,8 +48,10 @@ def to_sx(node: Expr, env: dict, tables: dict[str, TableDecl], boundary: dict | 
         return ca.SX(node.value)
     if isinstance(node, Name):
         return env[node.name]
-    if isinstance(node, Boundary):
-        return boundary[(node.which, node.name)]
+    if isinstance(node, Boundary):      # a multi-phase event names its phase
+        return boundary[(node.which, node.name, node.phase) if node.phase else (node.which, node.name)]
+    if isinstance(node, EventTime):
+        return boundary[(node.which, node.phase)]
     if isinstance(node, Neg):
         return -to_sx(node.operand, env, tables, boundary)
     if isinstance(node, BinOp):
