@@ -428,14 +428,15 @@ const Console = (() => {
     showState(job);
     $("#cancel").onclick = async () => { await api(`/v1/jobs/${id}/cancel`, { method: "POST" }); };
     $("#rerun").onclick = () => { location.href = "/new?from=" + id; };
-    if (window.TRAJLAB.warmFields[job.kind]) {
-      $("#warm").hidden = false;
-      $("#warm").onclick = () => { location.href = `/new?from=${id}&warm=1`; };
-    }
     text($("#params"), JSON.stringify(job.params, null, 2));
     if (!FINAL.includes(job.status)) await follow(`/v1/jobs/${id}/events`, (e) => showState(e.data));
     job = await getJSON("/v1/jobs/" + encodeURIComponent(id));
     showState(job);
+    // only a succeeded job can be a warm start (the API refuses any other with a 422)
+    if (window.TRAJLAB.warmFields[job.kind] && job.status === "succeeded") {
+      $("#warm").hidden = false;
+      $("#warm").onclick = () => { location.href = `/new?from=${id}&warm=1`; };
+    }
     await showFinished(job);
   }
 
