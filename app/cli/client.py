@@ -5,6 +5,8 @@
     job = c.submit("reentry", preset="betts-max-crossrange", params={"grid": {"intervals": 50}})
     done = c.wait(job["id"])                      # follows the job's Server-Sent Events
     result = c.result(job["id"])
+    study = c.submit_study(study_preset="crossrange-vs-heating")   # a trade study: one job per point
+    c.wait_study(study["id"]); rows = c.study_result(study["id"])["rows"]
 
 Every non-2xx answer raises :class:`TrajlabError` carrying the status and the
 API's one-line message (the 422 ``message`` naming field and rule, or ``detail``).
@@ -155,3 +157,52 @@ class Client:
             if job["status"] in FINAL_STATUSES:
                 return job
         raise TimeoutError(f"job {job_id} did not finish within {timeout} s")
+
+    # --- studies ---------------------------------------------------------------------------
+    def submit_study(self, *, study_preset: str | None = None, kind: str | None = None, preset: str | None = None,
+                     params: dict | None = None, sweeps: list[dict] | None = None, mode: str | None = None,
+                     label: str | None = None) -> dict:
+        """``POST /v1/studies``: a named study, or a base job (kind, preset, params) with ``sweeps`` and ``mode``;
+        what is given overrides the named study's own."""
+        body = {k: v for k, v in {"study_preset": study_preset, "kind": kind, "preset": preset, "params": params,
+                                  "sweeps": sweeps, "mode": mode, "label": label}.items() if v is not None}
+        return self._request("POST", "/v1/studies", json=body).json()
+
+    def study(self, study_id: str) -> dict:
+        return self._request("GET", f"/v1/studies/{study_id}").json()
+
+    def list_studies(self, *, limit: int = 50, offset: int = 0) -> list[dict]:
+        return self._request("GET", "/v1/studies", params={"limit": limit, "offset": offset}).json()
+
+    def study_result(self, study_id: str) -> dict:
+        """``{"study": ..., "rows": [...]}``: one row per point (swept values, status, key numbers, job id)."""
+        return self._request("GET", f"/v1/studies/{study_id}/result").json()
+
+    def study_result_csv(self, study_id: str) -> str:
+        return self._request("GET", f"/v1/studies/{study_id}/result", params={"format": "csv"}).text
+
+    def cancel_study(self, study_id: str) -> dict:
+        return self._request("POST", f"/v1/studies/{study_id}/cancel").json()
+
+    def wait_study(self, study_id: str, *, on_update: Callable[[dict], None] | None = None,
+                   timeout: float | None = None, poll_s: float = 1.0) -> dict:
+        """Poll the study until it is no longer running (a study has no event stream: its points do);
+        ``on_update`` gets each new document."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        seen = False
+        while True:
+            try:
+                study = self.study(study_id)
+                seen = True
+            except TrajlabError as exc:
+                if exc.status_code != 0 or not seen:
+                    raise
+                time.sleep(poll_s)  # a moment without the service it reached before (a restart): try again
+                continue
+            if on_update is not None:
+                on_update(study)
+            if study["status"] != "running":
+                return study
+            if deadline is not None and time.monotonic() >= deadline:
+                raise TimeoutError(f"study {study_id} did not finish within {timeout} s")
+            time.sleep(poll_s)

@@ -207,6 +207,9 @@ def main(argv: list[str] | None = None) -> int:
     from app.cli import client_commands as cli_client
 
     cli_client.add_commands(sub)
+    from app.cli import study_commands
+
+    study_commands.add_commands(sub)
     from app.cli import keys as cli_keys
 
     cli_keys.add_commands(sub)

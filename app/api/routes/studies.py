@@ -28,10 +28,15 @@ class Sweep(BaseModel):
 
     path: str | list[str] = Field(description="Dotted path(s) into params, e.g. `path.max_heat_rate_w_m2`",
                                   examples=["intercept_time_s"])
-    values: list[Any] | None = Field(None, max_length=studies.MAX_POINTS, description="The values, in order")
-    start: float | None = None
-    stop: float | None = None
-    count: int | None = Field(None, ge=2, le=studies.MAX_POINTS)
+    values: list[Any] | None = Field(None, max_length=studies.MAX_POINTS,
+                                     description="The values, in sweep order (any JSON the parameter takes); "
+                                                 "or give start, stop and count instead",
+                                     examples=[[7000.0, 8080.5, 9000.0]])
+    start: float | None = Field(None, description="First value of an evenly spaced range (with stop and count)",
+                                examples=[1.9e6])
+    stop: float | None = Field(None, description="Last value of the range, included", examples=[2.0e5])
+    count: int | None = Field(None, ge=2, le=studies.MAX_POINTS,
+                              description="Number of values from start to stop inclusive", examples=[10])
 
     @model_validator(mode="after")
     def _values_or_range(self) -> "Sweep":
@@ -46,13 +51,28 @@ class Sweep(BaseModel):
 
 
 class StudySubmission(BaseModel):
-    kind: str | None = Field(None, description="Job kind (taken from the study preset when one is named)")
-    study_preset: str | None = Field(None, description="A named study (GET /v1/studies/presets)")
-    preset: str | None = Field(None, description="The base job's preset")
-    params: dict[str, Any] | None = Field(None, description="Base job parameters (deep-merged onto the preset)")
-    sweeps: list[Sweep] | None = Field(None, min_length=1, max_length=2)
-    mode: Literal["independent", "continuation"] | None = None
-    label: str | None = Field(None, max_length=200)
+    """A trade study: a base job (kind, preset, params) and one or two swept parameters; each point is an
+    ordinary job.  Name a `study_preset` and every other field is optional (what is given overrides it)."""
+
+    kind: str | None = Field(None, description="Job kind of every point (taken from the study preset when one "
+                                               "is named)", examples=["reentry"])
+    study_preset: str | None = Field(None, description="A named study (GET /v1/studies/presets), e.g. "
+                                                       "`crossrange-vs-heating`", examples=["crossrange-vs-heating"])
+    preset: str | None = Field(None, description="The base job's preset (GET /v1/presets)",
+                               examples=["betts-max-crossrange"])
+    params: dict[str, Any] | None = Field(None, description="Base job parameters, deep-merged onto the preset "
+                                                            "(and onto the study preset's own params)",
+                                          examples=[{"grid": {"intervals": 50}}])
+    sweeps: list[Sweep] | None = Field(None, min_length=1, max_length=2,
+                                       description="One sweep, or two (their grid: every pair of values); at most "
+                                                   f"{studies.MAX_POINTS} points in all")
+    mode: Literal["independent", "continuation"] | None = Field(
+        None, description="`independent`: every point is queued at once and starts cold (a failed point is "
+                          "retried once from a solved neighbour); `continuation`: points run one at a time in "
+                          "sweep order, each warm-started from the nearest solved point (the kind's `from_job`; "
+                          "for kinds without one, midcourse, it is the same as independent one by one)",
+        examples=["continuation"])
+    label: str | None = Field(None, max_length=200, description="A name of your own for the study")
 
 
 class StudyOut(BaseModel):
@@ -109,7 +129,12 @@ def list_study_presets() -> dict[str, dict]:
 @router.post("", status_code=202, response_model=StudyOut, operation_id="submit_study",
              responses={422: {"description": "Invalid base job or sweep (the message names the point and field)"}})
 def submit_study(body: Annotated[StudySubmission, Body(openapi_examples={
-        "preset": {"summary": "A named study", "value": {"study_preset": "crossrange-vs-heating"}}})],
+        **{name: {"summary": f"The named study {name}", "description": p["description"],
+                  "value": {"study_preset": name}} for name, p in STUDY_PRESETS.items()},
+        "own": {"summary": "A sweep of your own: reentry crossrange against the final speed",
+                "value": {"kind": "reentry", "preset": "betts-max-crossrange", "params": {"grid": {"intervals": 30}},
+                          "sweeps": [{"path": "terminal.speed_mps", "values": [762.0, 1000.0, 1200.0]}],
+                          "mode": "continuation", "label": "crossrange vs final speed"}}})],
         response: Response, db: DatabaseDep, settings: SettingsDep, celery: CeleryDep, principal: PrincipalDep):
     spec_body = _resolve(body)
     spec = KINDS[spec_body["kind"]]
