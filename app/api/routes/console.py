@@ -58,6 +58,19 @@ def job_page(request: Request, job_id: str):
     return _page(request, "job.html", title=f"Job {job_id[:8]}", job_id=job_id)
 
 
+@router.get("/studies", response_class=HTMLResponse)
+def studies_page(request: Request):
+    from app.service.study_presets import STUDY_PRESETS
+
+    return _page(request, "studies.html", title="Studies",
+                 study_presets={n: {"kind": p["kind"], "description": p["description"]} for n, p in STUDY_PRESETS.items()})
+
+
+@router.get("/studies/{study_id}", response_class=HTMLResponse)
+def study_page(request: Request, study_id: str):
+    return _page(request, "study.html", title=f"Study {study_id[:8]}", study_id=study_id)
+
+
 @router.get("/compare", response_class=HTMLResponse)
 def compare_page(request: Request, ids: str = ""):
     return _page(request, "compare.html", title="Compare", ids=ids)
