@@ -11,7 +11,8 @@ from __future__ import annotations
 import uuid
 from datetime import datetime, timezone
 
-from sqlalchemy import JSON, Boolean, DateTime, Float, ForeignKey, Index, Integer, MetaData, String, Text
+from sqlalchemy import (JSON, BigInteger, Boolean, DateTime, Float, ForeignKey, Index, Integer, LargeBinary, MetaData,
+                        String, Text)
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 
 NAMING_CONVENTION = {
@@ -72,20 +73,32 @@ class Job(Base):
     # A point of a trade study (app/service/studies.py): the study and the point's index in it.
     study_id: Mapped[str | None] = mapped_column(ForeignKey("studies.id", ondelete="SET NULL"))
     study_index: Mapped[int | None] = mapped_column(Integer)
+    # Bytes this job keeps in the database: its params' JSON plus its result as stored (compressed),
+    # kept up to date on every write of either, so GET /v1/usage and the storage quota sum a column
+    # instead of reading results (app.service.storage).
+    stored_bytes: Mapped[int] = mapped_column(BigInteger, default=0, server_default="0")
 
     __table_args__ = (
         Index("ix_jobs_created_at", "created_at"),
         Index("ix_jobs_status_kind", "status", "kind"),
         Index("ix_jobs_owner_created_at", "owner", "created_at"),
         Index("ix_jobs_study_id", "study_id"),
+        # retention and `trajlab purge`: finished jobs by status, oldest first
+        Index("ix_jobs_status_finished_at", "status", "finished_at"),
     )
 
 
 class JobResult(Base):
+    """A job's result document.  Written compressed (``packed``, in the form ``encoding`` names:
+    app.runtime.result_codec); rows written before revision 0006 hold it as JSON in ``data``, and are
+    read as they are (never rewritten in bulk)."""
+
     __tablename__ = "job_results"
 
     job_id: Mapped[str] = mapped_column(ForeignKey("jobs.id", ondelete="CASCADE"), primary_key=True)
-    data: Mapped[dict] = mapped_column(JSON)
+    data: Mapped[dict | None] = mapped_column(JSON)
+    packed: Mapped[bytes | None] = mapped_column(LargeBinary)
+    encoding: Mapped[str | None] = mapped_column(String(16))
     created_at: Mapped[datetime] = mapped_column(DateTime(timezone=True), default=utcnow)
 
 
