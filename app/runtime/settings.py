@@ -128,6 +128,15 @@ class Settings(BaseSettings):
                                              "running jobs; one job alone may exceed it")
     heavy_cost: float = Field(default=5_000.0, gt=0, description="Jobs estimated above this go to the heavy queue")
     quota_retry_after_s: int = Field(default=30, ge=1, description="Retry-After of a 429")
+    # What the service keeps (README "Limits and data"; app.service.storage, app.service.retention).
+    max_stored_mb_per_owner: float | None = Field(
+        default=None, gt=0, description="Storage quota: MiB of params and (compressed) results one owner's jobs "
+                                        "may keep; a submission past it is a 429 (unset: no quota)")
+    retention_days: float | None = Field(
+        default=None, gt=0, description="Finished jobs (and finished studies) older than this many days are "
+                                        "deleted by the recovery loop (unset: kept until deleted)")
+    retention_interval_s: float = Field(
+        default=600.0, gt=0, description="How often the recovery loop applies TRAJLAB_RETENTION_DAYS")
 
     @model_validator(mode="after")
     def _embedded_database_in_data_dir(self) -> "Settings":
