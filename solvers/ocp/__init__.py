@@ -6,8 +6,9 @@ loading numpy or CasADi; :func:`solve` and :class:`OcpSolution` are loaded on fi
 (PEP 562), together with CasADi.
 
 Modules: ``expressions`` (the safe grammar), ``problem`` (the typed dataclasses), ``spec``
-(params -> :class:`OcpProblem`, with ``fields``: the readers of single fields and sections), ``cases`` (presets with published optima); with CasADi:
-``symbolic`` (tree -> SX), ``phase`` (one phase -> a cached NLP, multiple shooting or LGL, with
+(params -> :class:`OcpProblem`, with ``fields``: the readers of single fields and sections), ``cases`` (presets with published optima), ``phases_spec`` (several phases: params ->
+:class:`MultiPhaseProblem`), ``phase_cases`` (their presets); with CasADi:
+``multiphase`` (the phases' blocks in one NLP), ``multisolve`` (:func:`solve` of several phases), ``symbolic`` (tree -> SX), ``phase`` (one phase -> a cached NLP, multiple shooting or LGL, with
 block derivatives), ``verify`` (DOP853 re-flight), ``limits`` (limits that hold between the
 nodes), ``terminal`` (final values that hold on the re-flight), ``solver`` (:func:`solve`).
 """
@@ -15,11 +16,23 @@ from __future__ import annotations
 
 from solvers.ocp.cases import PRESETS
 from solvers.ocp.expressions import OcpInputError
+from solvers.ocp.phases_spec import MultiPhaseProblem
 from solvers.ocp.spec import OcpLimits, OcpProblem, parse_problem
 
-__all__ = ["PRESETS", "OcpInputError", "OcpLimits", "OcpProblem", "OcpSolution", "parse_problem", "solve"]
+__all__ = ["PRESETS", "MultiPhaseProblem", "MultiPhaseSolution", "OcpInputError", "OcpLimits", "OcpProblem",
+           "OcpSolution", "parse_problem", "solve"]
 
-_LAZY = {"solve": "solvers.ocp.solver", "OcpSolution": "solvers.ocp.solver"}
+_LAZY = {"OcpSolution": "solvers.ocp.solver", "MultiPhaseSolution": "solvers.ocp.multisolve"}
+
+
+def solve(problem, **kwargs):
+    """One phase (:func:`solvers.ocp.solver.solve`) or several (:func:`solvers.ocp.multisolve.solve_phases`),
+    as :func:`parse_problem` returned it; same keywords, the common protocol."""
+    if isinstance(problem, MultiPhaseProblem):
+        from solvers.ocp.multisolve import solve_phases
+        return solve_phases(problem, **kwargs)
+    from solvers.ocp.solver import solve as solve_one
+    return solve_one(problem, **kwargs)
 
 
 def __getattr__(name: str):

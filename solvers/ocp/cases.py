@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import math
 
+from solvers.ocp.phase_cases import PHASE_PRESETS
+
 DEG = math.pi / 180.0
 
 BRACHISTOCHRONE = {
@@ -186,3 +188,6 @@ PRESETS: dict[str, dict] = {
                        "turns sharply near the thermal); tolerance 0.2 m.",
         "optimum": 1248.03, "tolerance": 0.2, "params": HANG_GLIDER},
 }
+
+# Several phases (params.phases): solvers/ocp/phase_cases.py.
+PRESETS.update(PHASE_PRESETS)
