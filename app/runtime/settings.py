@@ -17,6 +17,8 @@ from pydantic import Field, model_validator
 from dotenv import dotenv_values
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
+from app.runtime.resources import default_job_memory_mb
+
 DEFAULT_DATA_DIR = Path("var")
 _TIME_LIMIT_VAR = re.compile(r"TRAJLAB_TIME_LIMIT_([A-Z0-9_]+)_S")
 
@@ -93,6 +95,13 @@ class Settings(BaseSettings):
                                       "a BRPOP connection overdue by this much")
 
     # Caps that keep one request from exhausting the machine.
+    job_memory_mb: int | None = Field(
+        default=None, ge=0, description="Resident memory one job may hold (worker.guard): past it the job fails "
+                                        "with resource_limit and a job estimated past it is a 422; unset: 3/4 of the "
+                                        "machine's memory over worker_concurrency + quick_concurrency; 0: no cap")
+    worker_recycle_mb: int | None = Field(
+        default=None, ge=0, description="A worker process holding more than this after a job is replaced "
+                                        "(Celery's worker_max_memory_per_child); unset: half of job_memory_mb")
     max_grid_intervals: int = Field(default=1000, description="reentry/robust_reentry grid.intervals cap")
     lambert_max_problems: int = Field(default=100_000, description="POST /v1/lambert problems per request")
     monte_carlo_max_samples: int = Field(default=1_000_000)
@@ -143,6 +152,14 @@ class Settings(BaseSettings):
         # TRAJLAB_DATA_DIR moves everything the embedded mode writes, the SQLite file included.
         if not self.database_url:
             self.database_url = f"sqlite:///{Path(self.data_dir) / 'trajlab.db'}"
+        return self
+
+    @model_validator(mode="after")
+    def _memory_from_the_machine(self) -> "Settings":
+        if self.job_memory_mb is None:
+            self.job_memory_mb = default_job_memory_mb(self.worker_concurrency + self.quick_concurrency)
+        if self.worker_recycle_mb is None:
+            self.worker_recycle_mb = self.job_memory_mb // 2
         return self
 
     @model_validator(mode="after")
