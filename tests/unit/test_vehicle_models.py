@@ -209,3 +209,23 @@ def test_inline_vehicle_planet_and_atmosphere_reach_the_solver():
     assert v.heating == SuttonGraves(nose_radius_m=0.8) and v.planet.sutton_graves_k == 1.8e-4
     assert v.atmosphere.density(7000.0) == pytest.approx(1.2 / math.e, rel=1e-12)
     assert to_problem(ReentryParams()).vehicle == sh.SHUTTLE        # defaults: today's shuttle
+
+
+@pytest.mark.parametrize("name", sorted(vehicles.VEHICLES))
+def test_a_listed_vehicle_pastes_into_params_unchanged(client, name):
+    """Issue 28: what GET /v1/vehicles/{name} returns is what params.vehicle (and planet, atmosphere) take,
+    and it flies the same vehicle as naming the preset (every number, table, model, planet, atmosphere)."""
+    import dataclasses
+
+    from app.kinds.reentry.edge import vehicle_of
+    from app.kinds.reentry.params import ReentryParams, ReentryVehicle
+    from app.kinds.reentry.vehicle import VehicleData
+    from solvers.models.vehicle_data import vehicle_to_dict
+
+    assert set(VehicleData.model_fields) == set(ReentryVehicle.model_fields)
+    out = client.get(f"/v1/vehicles/{name}").json()
+    pasted = ReentryParams.model_validate({k: out[k] for k in ("vehicle", "planet", "atmosphere")})
+    named = ReentryParams.model_validate({"vehicle": {"preset": name}})
+    assert vehicle_to_dict(vehicle_of(pasted)) == vehicle_to_dict(vehicle_of(named))
+    base = dataclasses.replace(vehicles.vehicle_preset(name).vehicle, rotating_earth=False)
+    assert vehicle_to_dict(vehicle_of(named)) == vehicle_to_dict(base)

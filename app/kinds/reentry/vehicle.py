@@ -145,15 +145,20 @@ def named_atmosphere(name: str) -> atmosphere.Atmosphere:
 
 
 class VehicleData(StrictModel):
-    """A vehicle preset's data in API units (``GET /v1/vehicles``)."""
+    """A vehicle preset's data in API units (``GET /v1/vehicles``): exactly the fields ``params.vehicle``
+    takes (``ReentryVehicle``), so it can be pasted there and edited (a test holds the round trip).
+    Betts' heating fit has no numbers here: ``heating.model: betts`` names it (Betts' shuttle
+    coefficients, ``solvers.models.shuttle``)."""
 
-    mass_kg: float
-    area_m2: float
+    preset: VehicleName = Field(description="The vehicle's own name: as params.vehicle.preset, the base the "
+                                "other fields override")
+    mass_kg: float = Field(description="Mass (kg)")
+    area_m2: float = Field(description="Reference area (m^2)")
     cl_coeffs: list[float] | None = Field(description="CL polynomial in alpha degrees (null: table)")
     cd_coeffs: list[float] | None = Field(description="CD polynomial in alpha degrees (null: table)")
-    aero_table: ReentryAeroTable | None
-    heating: ReentryHeating
-    heat_coeffs: list[float] | None = Field(description="Betts heating-fit coefficients (heating.model betts)")
+    aero_table: ReentryAeroTable | None = Field(description="CL and CD against alpha (deg) and Mach (null: "
+                                                "polynomials)")
+    heating: ReentryHeating = Field(description="Heating model")
 
 
 class VehicleOut(StrictModel):
@@ -171,10 +176,9 @@ def vehicle_out(name: str) -> dict:
     table = v.aero_table
     heating = (ReentryHeating(model="sutton_graves", nose_radius_m=v.heating.nose_radius_m, k=v.heating.k)
                if v.heating is not None else ReentryHeating(model="betts"))
-    data = VehicleData(mass_kg=v.mass_kg, area_m2=v.area_m2,
+    data = VehicleData(preset=name, mass_kg=v.mass_kg, area_m2=v.area_m2,
                        cl_coeffs=None if table else list(v.cl_coeffs), cd_coeffs=None if table else list(v.cd_coeffs),
-                       aero_table=ReentryAeroTable.from_solver(table) if table else None, heating=heating,
-                       heat_coeffs=None if v.heating is not None else list(v.heat_coeffs))
+                       aero_table=ReentryAeroTable.from_solver(table) if table else None, heating=heating)
     return VehicleOut(name=p.name, description=p.description, vehicle=data,
                       planet=ReentryPlanet.from_solver(v.planet),
                       atmosphere=ReentryAtmosphereModel.from_solver(v.atmosphere)).model_dump()
