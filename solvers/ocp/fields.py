@@ -29,6 +29,7 @@ class OcpLimits:
     max_table_values: int = 100_000
     max_intervals: int = 1000
     max_constraints: int = 200
+    max_refinements: int = 20          # transcription.max_refinements (mesh-refinement rounds)
 
 
 # --- parsing -------------------------------------------------------------------------------------
@@ -156,10 +157,11 @@ def transcription_at(t: dict, path: str, limits: OcpLimits) -> Transcription:
             raise OcpInputError(f"{path}.{key}", f"{v} is outside [{lo}, {hi}]{lim}")
         return v
 
-    integer("max_refinements", 8, 0, 20)
     return Transcription(method=method, control=control,
                          intervals=integer("intervals", 50, 1, limits.max_intervals, "max_intervals"),
-                         substeps=integer("substeps", 2, 1, 16), nodes=integer("nodes", 4, 2, 12))
+                         substeps=integer("substeps", 2, 1, 16), nodes=integer("nodes", 4, 2, 12),
+                         max_refinements=integer("max_refinements", 8, 0, limits.max_refinements,
+                                                 "max_refinements"))
 
 
 def guess_at(g: dict, path: str, states, controls) -> Guess:

@@ -3,10 +3,12 @@
 Both transcriptions build a compact graph: one SX function for an interval (multiple shooting:
 ``substeps`` RK4 steps with linear or constant controls, the Lagrange integrand as a quadrature
 state; LGL: the integral collocation form of :mod:`solvers.transcription.lgl` on one segment of
-``nodes`` nodes) ``map``-ped over the intervals, one SX function for the path constraints
-mapped over the nodes, one for the events.  Time is ``t = t0 + (tf - t0) tau`` with ``tau`` in
-``[0, 1]`` split into equal intervals; ``tf`` is always a decision variable (fixed by equal
-bounds when the problem fixes it), so fixed and free final time share a structure.
+``nodes`` nodes; one per node count on a refined mesh) ``map``-ped over the intervals, one SX
+function for the path constraints mapped over the nodes, one for the events.  Time is ``t = t0 +
+(tf - t0) tau`` with ``tau`` in ``[0, 1]`` split into equal intervals or a refined mesh's
+(:class:`solvers.ocp.grid.Grid`; each interval's start and width reach it as its ``k``); ``tf`` is
+always a decision variable (fixed by equal bounds when the problem fixes it), so fixed and free
+final time share a structure.
 
 What varies between jobs of one structure is an NLP parameter or a bound, never the graph: the
 constants, ``t0``, the scales of states, controls, time, parameters and constraints (all taken
@@ -27,6 +29,7 @@ import casadi as ca
 import numpy as np
 
 from solvers.ocp.spec import OcpProblem
+from solvers.ocp.grid import Grid, grid_of  # noqa: F401 (re-exported: benchmarks, multiphase)
 from solvers.ocp.symbolic import PhaseFunctions
 from solvers.transcription.lgl import lgl_integration_matrix, lgl_nodes, lgl_weights
 from solvers.transcription.nlp import NLPSolver, cached_solver
@@ -35,61 +38,6 @@ from solvers.transcription.nlp import NLPSolver, cached_solver
 # AD of the MX graph.  Expanding the whole NLP to SX (as Opti with expand=True) was measured
 # slower to build: Betts shuttle 9.5 s build + 0.7 s IPOPT against 0.2 s + 1.1 s for the MX graph.
 BLOCKS = True
-
-
-@dataclass(frozen=True)
-class Grid:
-    """Where the nodes of one transcription sit in normalized time ``tau``."""
-
-    method: str
-    intervals: int
-    control: str = "linear"
-    substeps: int = 2
-    nodes: int = 4
-
-    @property
-    def n_nodes(self) -> int:
-        m = self.intervals
-        return m + 1 if self.method == "multiple_shooting" else m * (self.nodes - 1) + 1
-
-    @property
-    def n_controls(self) -> int:
-        if self.method == "multiple_shooting" and self.control == "constant":
-            return self.intervals
-        return self.n_nodes
-
-    def tau(self) -> np.ndarray:
-        m = self.intervals
-        if self.method == "multiple_shooting":
-            return np.linspace(0.0, 1.0, m + 1)
-        local = 0.5 * (lgl_nodes(self.nodes) + 1.0)
-        tau = [(k + local[:-1]) / m for k in range(m)]
-        return np.concatenate(tau + [[1.0]])
-
-    def node_interval(self) -> np.ndarray:
-        """The interval each node belongs to (a shared end node: the earlier one)."""
-        if self.method == "multiple_shooting":
-            return np.minimum(np.arange(self.intervals + 1), self.intervals - 1)
-        k = np.arange(self.n_nodes) // (self.nodes - 1)
-        return np.minimum(k, self.intervals - 1)
-
-    def node_intervals_both(self) -> tuple[np.ndarray, np.ndarray]:
-        """For each node, the intervals on its left and right (equal inside an interval)."""
-        left = self.node_interval()
-        if self.method == "multiple_shooting":
-            idx = np.arange(self.intervals + 1)
-            return np.maximum(idx - 1, 0), np.minimum(idx, self.intervals - 1)
-        n = self.nodes - 1
-        idx = np.arange(self.n_nodes)
-        ends = idx % n == 0
-        lo = np.where(ends, np.maximum(idx // n - 1, 0), left)
-        return lo, np.minimum(left, self.intervals - 1)
-
-
-def grid_of(problem: OcpProblem) -> Grid:
-    tr = problem.transcription
-    return Grid(method=tr.method, intervals=tr.intervals, control=tr.control, substeps=tr.substeps,
-                nodes=tr.nodes)
 
 
 def _ms_interval(fns: PhaseFunctions, grid: Grid) -> ca.Function:
@@ -121,10 +69,10 @@ def _ms_interval(fns: PhaseFunctions, grid: Grid) -> ca.Function:
     return ca.Function("ocp_interval", [xa, ua, ub, ta, h, theta, c, t0, tf], [x, q])
 
 
-def _lgl_segment(fns: PhaseFunctions, grid: Grid) -> ca.Function:
+def _lgl_segment(fns: PhaseFunctions, n: int) -> ca.Function:
     """Integral LGL collocation on one segment: (X (nx x n), U (nu x n), ta, h, theta, c, t0, tf)
     -> (defects nx x (n-1), quadrature)."""
-    nx, nu, n = fns.nx, fns.nu, grid.nodes
+    nx, nu = fns.nx, fns.nu
     X, U = ca.SX.sym("X", nx, n), ca.SX.sym("U", nu, n)
     ta, h = ca.SX.sym("ta"), ca.SX.sym("h")
     theta, c = ca.SX.sym("theta", fns.ntheta), ca.SX.sym("c", fns.nc)
@@ -148,7 +96,7 @@ class Element:
     name: str
     fn: ca.Function
     cols: np.ndarray          # (count, nw) global columns of each instance's w
-    kvals: np.ndarray         # (count,)
+    kvals: np.ndarray         # (count,) or (count, nk): each instance's k
     has_f: bool = True        # False: its objective share is zero (no Lagrange term)
 
     @property
@@ -223,9 +171,12 @@ class PhaseNLP:
         P = self.split_p(p)
         c, t0 = P["c"], P["t0"]
         k = ca.SX.sym("k")
+        kab = ca.SX.sym("kab", 2)           # an interval's start and width in tau (any mesh)
         tfz, thz = ca.SX.sym("tfz"), ca.SX.sym("thz", nth)
         tf, theta = tfz * P["ts"], thz * P["thetas"]
-        h = (tf - t0) / m
+        ta, h = t0 + (tf - t0) * kab[0], (tf - t0) * kab[1]
+        b = g.bounds()
+        kvals = np.column_stack([b[:-1], np.diff(b)])
         objective = self.sign / P["objs"]
         out = []
         if g.method == "multiple_shooting":
@@ -233,28 +184,32 @@ class PhaseNLP:
             xa, xb = ca.SX.sym("xa", nx), ca.SX.sym("xb", nx)
             ua, ub = ca.SX.sym("ua", nu), ca.SX.sym("ub", nu)
             xe, q = _ms_interval(fns, g)(xa * P["xs"], ua * P["us"], (ub if linear else ua) * P["us"],
-                                         t0 + k * h, h, theta, c, t0, tf)
+                                         ta, h, theta, c, t0, tf)
             w = ca.vertcat(tfz, thz, xa, ua, *([ub] if linear else []), xb)
             f = objective * q if fns.nq else ca.SX(0)
-            fn = ca.Function("ocp_interval_el", [w, p, k], [(xe - xb * P["xs"]) / P["xs"], f])
+            fn = ca.Function("ocp_interval_el", [w, p, kab], [(xe - xb * P["xs"]) / P["xs"], f])
             cols = [np.concatenate([self._common_cols(), self._x_cols(i), self._u_cols(i),
                                     *([self._u_cols(i + 1)] if linear else []), self._x_cols(i + 1)])
                     for i in range(m)]
-            out.append(Element("defects", fn, np.array(cols), np.arange(m, dtype=float), bool(fns.nq)))
+            out.append(Element("defects", fn, np.array(cols), kvals, bool(fns.nq)))
         else:
-            n = g.nodes
-            Xs, Us = ca.SX.sym("X", nx, n), ca.SX.sym("U", nu, n)
-            d, q = _lgl_segment(fns, g)(Xs * ca.repmat(P["xs"], 1, n), Us * ca.repmat(P["us"], 1, n),
-                                        t0 + k * h, h, theta, c, t0, tf)
-            w = ca.vertcat(tfz, thz, ca.vec(Xs), ca.vec(Us))
-            f = objective * q if fns.nq else ca.SX(0)
-            fn = ca.Function("ocp_segment_el", [w, p, k], [ca.vec(d / ca.repmat(P["xs"], 1, n - 1)), f])
-            cols = []
-            for i in range(m):
-                nodes = range(i * (n - 1), i * (n - 1) + n)
-                cols.append(np.concatenate([self._common_cols(), *[self._x_cols(j) for j in nodes],
-                                            *[self._u_cols(j) for j in nodes]]))
-            out.append(Element("defects", fn, np.array(cols), np.arange(m, dtype=float), bool(fns.nq)))
+            # One element per node count: a refined mesh mixes degrees (solvers.transcription.refine).
+            per, off = g.nodes_per_interval(), g.offsets()
+            for n in sorted(set(per.tolist())):
+                which = np.flatnonzero(per == n)
+                Xs, Us = ca.SX.sym("X", nx, n), ca.SX.sym("U", nu, n)
+                d, q = _lgl_segment(fns, n)(Xs * ca.repmat(P["xs"], 1, n), Us * ca.repmat(P["us"], 1, n),
+                                            ta, h, theta, c, t0, tf)
+                w = ca.vertcat(tfz, thz, ca.vec(Xs), ca.vec(Us))
+                f = objective * q if fns.nq else ca.SX(0)
+                name = "ocp_segment_el" if len(set(per.tolist())) == 1 else f"ocp_segment{n}_el"
+                fn = ca.Function(name, [w, p, kab], [ca.vec(d / ca.repmat(P["xs"], 1, n - 1)), f])
+                cols = []
+                for i in which:
+                    nodes = range(off[i], off[i] + n)
+                    cols.append(np.concatenate([self._common_cols(), *[self._x_cols(j) for j in nodes],
+                                                *[self._u_cols(j) for j in nodes]]))
+                out.append(Element("defects", fn, np.array(cols), kvals[which], bool(fns.nq)))
         xs_, us_ = ca.SX.sym("x", nx), ca.SX.sym("u", nu)
         if fns.npath:
             t = t0 + (tf - t0) * k
@@ -333,7 +288,7 @@ class ElementBlocks:
         np_ = int(nlp["p"].numel())
         for el in elements:
             nw = el.cols.shape[1]
-            w, ps, k = ca.SX.sym("w", nw), ca.SX.sym("p", np_), ca.SX.sym("k")
+            w, ps, k = ca.SX.sym("w", nw), ca.SX.sym("p", np_), ca.SX.sym("k", el.fn.size1_in(2))
             y, f = el.fn(w, ps, k)
             mu, lf = ca.SX.sym("mu", el.ny), ca.SX.sym("lf")
             if el.ny:

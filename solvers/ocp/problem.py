@@ -6,7 +6,7 @@ constants, tables, parameters and the objective belong to the problem.  Standard
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from solvers.ocp.expressions import Expr, to_text
 
@@ -88,6 +88,11 @@ class Transcription:
     control: str = "linear"            # multiple shooting: "linear" | "constant"
     substeps: int = 2                  # multiple shooting: RK4 steps per interval
     nodes: int = 4                     # lgl: nodes per segment (polynomial degree nodes - 1)
+    max_refinements: int = 8           # mesh-refinement rounds at most when ``accuracy`` is set
+    # A refined mesh (solvers.ocp.refine): interval boundaries in normalized time [0, 1] and, for
+    # LGL, the nodes of each interval; None: ``intervals`` equal intervals of ``nodes`` nodes.
+    boundaries: tuple[float, ...] | None = None
+    segment_nodes: tuple[int, ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -130,6 +135,7 @@ class OcpProblem:
     phase: Phase
     objective: Objective
     accuracy: float | None = None
+    accuracy_required: bool = True     # False: a refinement that misses ``accuracy`` ends with a note
     plots: tuple[tuple[str, str], ...] = ()
 
     def __getattr__(self, name: str):
@@ -156,5 +162,5 @@ class OcpProblem:
             None if self.objective.expr is None else to_text(self.objective.expr),
             None if self.objective.integrand is None else to_text(self.objective.integrand),
             ph.time.final is None,
-            ph.transcription,
+            replace(ph.transcription, max_refinements=0),   # the rounds do not shape the NLP
         )

@@ -21,7 +21,7 @@ from solvers.ocp.limits import hold_path_limits
 from solvers.ocp.phase import PhaseNLP, positive_scale
 from solvers.ocp.spec import OcpProblem
 from solvers.ocp.symbolic import PhaseFunctions, phase_functions
-from solvers.ocp.terminal import TERMINAL_ROUNDS, TERMINAL_TOLERANCE, finer, grid_words, terminal_checks
+from solvers.ocp.terminal import TERMINAL_ROUNDS, TERMINAL_TOLERANCE, grid_words, terminal_checks
 from solvers.ocp.verify import Verification, verify
 
 _FUNCTIONS: dict[tuple, PhaseFunctions] = {}
@@ -45,6 +45,8 @@ class OcpSolution:
     verification: dict
     solver: dict
     notes: list[str] = field(default_factory=list)
+    # per interval: "state" the scaled local error, "path" the worst scaled path excess (refinement)
+    interval_errors: dict = field(default_factory=dict)
 
 
 # A warm start (a stored result, a limit round) begins near the optimum: a small barrier and
@@ -242,25 +244,17 @@ def solve(problem: OcpProblem, *, initial_guess: dict | None = None, on_progress
     """Solve one phase (module docstring).  ``initial_guess``: a stored ``ocp`` result (its
     ``trajectory``, ``tf`` and ``parameters``) interpolated onto this grid.  ``seed`` is accepted
     for the common protocol; nothing here is random.  A final value missed on the re-flight is
-    solved again on a finer grid (:mod:`solvers.ocp.terminal`), warm-started from the answer."""
+    solved again on a finer grid (:mod:`solvers.ocp.terminal`), warm-started from the answer; with
+    ``accuracy`` the grid is refined until the answer holds to it (:mod:`solvers.ocp.refine`)."""
     del seed
-    sol = _solve_on_grid(problem, initial_guess=initial_guess, on_progress=on_progress, should_stop=should_stop,
-                         ipopt=ipopt)
-    refinements = []
-    while sol.status.outcome is Outcome.TERMINAL_NOT_HELD and len(refinements) < TERMINAL_ROUNDS:
-        nxt = finer(problem)
-        if nxt is None:
-            break
-        refinements.append(f"{grid_words(problem)} -> {grid_words(nxt)}")
-        warm = {"trajectory": sol.trajectory, "tf": sol.tf, "parameters": sol.parameters}
-        problem = nxt
-        sol = _solve_on_grid(problem, initial_guess=warm, on_progress=on_progress, should_stop=should_stop,
-                             ipopt=ipopt)
-    if refinements:
-        sol.notes.insert(0, "terminal conditions missed on the re-flight, grid refined (warm-started): "
-                         + "; ".join(refinements) + f"; now {'held' if sol.verification['terminal_held'] else 'NOT held'}")
-        sol.solver["terminal_refinements"] = refinements
-    return sol
+    from solvers.ocp import refine
+
+    kw = {"on_progress": on_progress, "ipopt": ipopt}
+    if problem.accuracy is not None:
+        return refine.solve_refined(problem, solve_on_grid=_solve_on_grid, initial_guess=initial_guess,
+                                    should_stop=should_stop, **kw)
+    return refine.solve_terminal(problem, solve_on_grid=_solve_on_grid, initial_guess=initial_guess,
+                                 should_stop=should_stop, rounds=TERMINAL_ROUNDS, **kw)
 
 
 def _solve_on_grid(problem: OcpProblem, *, initial_guess, on_progress, should_stop, ipopt) -> OcpSolution:
@@ -326,6 +320,8 @@ def _solve_on_grid(problem: OcpProblem, *, initial_guess, on_progress, should_st
     sol = _solution(problem, nlp, num, att, ver, status, notes)
     sol.verification.update(agrees=agrees, agreement_tolerance=agreement, terminal=terminal,
                             terminal_held=terminal_held, terminal_tolerance=TERMINAL_TOLERANCE)
+    sol.interval_errors = {"state": ver.interval_error,
+                           "path": np.max(ver.interval_excess, axis=0) if ver.interval_excess else None}
     return sol
 
 
@@ -337,7 +333,8 @@ def _verify(problem: OcpProblem, nlp: PhaseNLP, num: Numbers, att: Attempt) -> V
                   theta=att.theta, c=num.p[:nlp.fns.nc], t0=t0, tf=att.tf,
                   state_names=ph.state_names, x_scale=num.x_scale,
                   path_bounds=[(c.lower, c.upper) for c in ph.path],
-                  path_names=[c.name for c in ph.path], path_scale=num.path_scale)
+                  path_names=[c.name for c in ph.path], path_scale=num.path_scale,
+                  local=problem.accuracy is not None)
 
 
 def _solution(problem, nlp, num, att, ver, status, notes) -> OcpSolution:

@@ -72,7 +72,7 @@ __all__ = [
 _IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 TOP_FIELDS = ("title", "constants", "tables", "states", "controls", "parameters", "time",
               "expressions", "dynamics", "path", "boundary", "objective", "transcription", "guess",
-              "accuracy", "plots")
+              "accuracy", "accuracy_required", "plots")
 
 class _Names:
     """Every declared name in one namespace: unique, an identifier, shadowing nothing."""
@@ -232,6 +232,9 @@ def parse_problem(params: dict, limits: OcpLimits = OcpLimits()) -> OcpProblem:
     accuracy = number_at(params.get("accuracy"), f"{P}.accuracy")
     if accuracy is not None and not accuracy > 0:
         raise OcpInputError(f"{P}.accuracy", "must be positive")
+    accuracy_required = params.get("accuracy_required", True)
+    if not isinstance(accuracy_required, bool):
+        raise OcpInputError(f"{P}.accuracy_required", "expected true or false")
     plots = []
     reportable = {"t", *names.kinds}
     for i, pair in enumerate(list_at(params.get("plots"), f"{P}.plots")):
@@ -249,7 +252,7 @@ def parse_problem(params: dict, limits: OcpLimits = OcpLimits()) -> OcpProblem:
                   boundary=boundary, transcription=transcription, guess=guess)
     return OcpProblem(title=title, constants=tuple(constants), tables=tuple(tables),
                       parameters=tuple(parameters), phase=phase, objective=objective,
-                      accuracy=accuracy, plots=tuple(plots))
+                      accuracy=accuracy, accuracy_required=accuracy_required, plots=tuple(plots))
 
 
 # field -> (class, kind of name, its number fields, whether it has a unit, its limit)

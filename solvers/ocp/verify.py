@@ -35,6 +35,7 @@ class Verification:
     max_scaled_difference: dict[str, float]
     path: dict[str, dict] = field(default_factory=dict)
     interval_excess: list[np.ndarray] = field(default_factory=list)   # per path constraint, (m,)
+    interval_error: np.ndarray | None = None     # (m,) scaled local error per interval (local=True)
     limits_held: bool = True
     ok: bool = True
     message: str = ""
@@ -58,13 +59,12 @@ def control_function(grid, t_nodes: np.ndarray, U: np.ndarray):
             return lambda t, k: np.repeat(U[:, k:k + 1], np.size(t), axis=1)
         return lambda t, k: np.vstack([np.interp(np.atleast_1d(t), t_nodes[k:k + 2], U[i, k:k + 2])
                                        for i in range(U.shape[0])])
-    n = grid.nodes
-    tau = lgl_nodes(n)
+    off, per = grid.offsets(), grid.nodes_per_interval()
 
     def u(t, k):
-        ta, tb = t_nodes[k * (n - 1)], t_nodes[(k + 1) * (n - 1)]
+        ta, tb = t_nodes[off[k]], t_nodes[off[k + 1]]
         s = 2.0 * (np.atleast_1d(t) - ta) / (tb - ta) - 1.0
-        return U[:, k * (n - 1):k * (n - 1) + n] @ lagrange_matrix(tau, s).T
+        return U[:, off[k]:off[k] + per[k]] @ lagrange_matrix(lgl_nodes(int(per[k])), s).T
     del m
     return u
 
@@ -108,14 +108,15 @@ def _fast_rhs(fns, args):
 
 
 def interval_bounds(grid, t_nodes: np.ndarray) -> np.ndarray:
-    step = 1 if grid.method == "multiple_shooting" else grid.nodes - 1
-    return t_nodes[::step]
+    return t_nodes[grid.offsets()]
 
 
 def verify(*, fns, grid, t_nodes, X, U, theta, c, t0, tf, state_names, x_scale,
-           path_bounds, path_names, path_scale) -> Verification:
+           path_bounds, path_names, path_scale, local: bool = False) -> Verification:
     """Re-fly ``U`` from ``X[:, 0]`` (module docstring).  ``path_bounds``: (lower, upper) per path
-    constraint (None for a side without a bound)."""
+    constraint (None for a side without a bound).  ``local``: also re-fly each interval from its
+    own first node (``interval_error``: what that interval's discretization adds, the error
+    model of mesh refinement, :mod:`solvers.transcription.refine`)."""
     uf = control_function(grid, t_nodes, np.asarray(U, float))
     ends = interval_bounds(grid, t_nodes)
     m = grid.intervals
@@ -124,10 +125,12 @@ def verify(*, fns, grid, t_nodes, X, U, theta, c, t0, tf, state_names, x_scale,
     atol = 1e-10 * np.asarray(x_scale, float)
     ts, xs_, us_, node_x, fail = [], [], [], [X[:, 0].copy()], ""
     y = np.asarray(X[:, 0], float).copy()
-    per_node = grid.n_nodes // m if grid.method == "lgl" else 1
+    off = grid.offsets()
+    scale = np.asarray(x_scale, float)
+    local_err = np.full(m, np.nan) if local else None
     for k in range(m):
         ta, tb = ends[k], ends[k + 1]
-        nodes_k = t_nodes[k * per_node + 1:(k + 1) * per_node + 1] if grid.method == "lgl" else [tb]
+        nodes_k = t_nodes[off[k] + 1:off[k + 1] + 1]
         dense = np.linspace(ta, tb, SAMPLES_PER_INTERVAL + 1)[:-1]
         t_eval = np.unique(np.concatenate([dense, nodes_k]))
 
@@ -156,11 +159,19 @@ def verify(*, fns, grid, t_nodes, X, U, theta, c, t0, tf, state_names, x_scale,
         us_.append(uf(t_eval[keep], k))
         node_x += [sol.y[:, np.searchsorted(t_eval, tn)] for tn in nodes_k]
         y = sol.y[:, -1].copy()
+        if local:
+            try:
+                loc = solve_ivp(f, (ta, tb), X[:, off[k]], method="DOP853", rtol=1e-10, atol=atol,
+                                t_eval=nodes_k)
+                if loc.success and loc.y.shape[1] == len(nodes_k):
+                    d = np.abs(loc.y - X[:, off[k] + 1:off[k + 1] + 1]) / scale[:, None]
+                    local_err[k] = float(d.max())
+            except (ValueError, ArithmeticError, RuntimeError):
+                pass          # stays NaN: the interval counts as missing its share
     ts.append(np.array([t_nodes[-1]]))
     xs_.append(y[:, None])
     us_.append(uf(np.array([t_nodes[-1]]), m - 1))
     t_d, x_d, u_d = np.concatenate(ts), np.hstack(xs_), np.hstack(us_)
-    scale = np.asarray(x_scale, float)
     if fail:
         nan = {s: float("nan") for s in state_names}
         return Verification(t=t_d, x=x_d, u=u_d, max_abs_difference=nan, max_scaled_difference=dict(nan),
@@ -168,7 +179,8 @@ def verify(*, fns, grid, t_nodes, X, U, theta, c, t0, tf, state_names, x_scale,
     diff = np.abs(np.column_stack(node_x) - X)
     abs_d = {s: float(diff[i].max()) for i, s in enumerate(state_names)}
     scaled = {s: float(diff[i].max() / scale[i]) for i, s in enumerate(state_names)}
-    ver = Verification(t=t_d, x=x_d, u=u_d, max_abs_difference=abs_d, max_scaled_difference=scaled)
+    ver = Verification(t=t_d, x=x_d, u=u_d, max_abs_difference=abs_d, max_scaled_difference=scaled,
+                       interval_error=local_err)
     if fns.npath:
         vals = np.asarray(fns.path.map(t_d.size)(t_d[None, :], x_d, u_d, args[0], args[1], t0, tf))
         interval = np.minimum(np.searchsorted(ends, t_d, side="right") - 1, m - 1)
