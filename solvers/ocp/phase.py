@@ -28,8 +28,8 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from solvers.ocp.grid import Grid, grid_of
 from solvers.ocp.spec import OcpProblem
-from solvers.ocp.grid import Grid, grid_of  # noqa: F401 (re-exported: benchmarks, multiphase)
 from solvers.ocp.symbolic import PhaseFunctions
 from solvers.transcription.lgl import lgl_integration_matrix, lgl_nodes, lgl_weights
 from solvers.transcription.nlp import NLPSolver, cached_solver

@@ -21,7 +21,12 @@ from solvers.ocp.limits import hold_path_limits
 from solvers.ocp.phase import PhaseNLP, positive_scale
 from solvers.ocp.spec import OcpProblem
 from solvers.ocp.symbolic import PhaseFunctions, phase_functions
-from solvers.ocp.terminal import TERMINAL_ROUNDS, TERMINAL_TOLERANCE, grid_words, terminal_checks
+from solvers.ocp.terminal import (
+    TERMINAL_ROUNDS,
+    TERMINAL_TOLERANCE,
+    grid_words,
+    terminal_checks,
+)
 from solvers.ocp.verify import Verification, verify
 
 _FUNCTIONS: dict[tuple, PhaseFunctions] = {}

@@ -46,8 +46,9 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Callable, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -71,7 +72,7 @@ class Mesh:
             raise ValueError("one node count per interval")
 
     @classmethod
-    def uniform(cls, intervals: int, nodes: int | None = None) -> "Mesh":
+    def uniform(cls, intervals: int, nodes: int | None = None) -> Mesh:
         b = np.linspace(0.0, 1.0, intervals + 1)
         b[0], b[-1] = 0.0, 1.0
         return cls(tuple(b.tolist()), None if nodes is None else (nodes,) * intervals)
