@@ -13,7 +13,8 @@ from app.kinds.base import KindSpec, StrictModel
 JobStatus = Literal["queued", "running", "succeeded", "failed", "cancelled"]
 # invalid_input: parameters that validated but name something unusable when the job runs (a warm start
 # from a job that does not exist, has not succeeded or does not fit the problem).
-ErrorCode = Literal["infeasible", "not_converged", "limit_not_held", "terminal_not_held", "not_robust", "time_limit", "worker_lost",
+ErrorCode = Literal["infeasible", "not_converged", "limit_not_held", "terminal_not_held", "accuracy_not_reached",
+                    "not_robust", "time_limit", "worker_lost",
                     "cancelled", "invalid_input", "internal"]
 
 

@@ -191,6 +191,7 @@ def outcome_from_status(status, result: dict | None) -> RunOutcome:
         Outcome.NOT_CONVERGED: "not_converged",
         Outcome.LIMIT_NOT_HELD: "limit_not_held",
         Outcome.TERMINAL_NOT_HELD: "terminal_not_held",
+        Outcome.ACCURACY_NOT_REACHED: "accuracy_not_reached",
     }.get(status.outcome, "internal")
     msg = status.message or status.solver_status
     if status.solver_status and status.solver_status not in msg:

@@ -130,8 +130,8 @@ class OcpTranscription(StrictModel):
     substeps: int = Field(2, ge=1, le=16, description="multiple_shooting: RK4 steps per interval",
                           examples=[2])
     nodes: int = Field(4, ge=2, le=12, description="lgl: collocation nodes per interval", examples=[4])
-    max_refinements: int = Field(8, ge=0, le=20, description="Mesh-refinement rounds at most when `accuracy` "
-                                 "is set", examples=[8])
+    max_refinements: int = Field(8, ge=0, description="Mesh-refinement rounds at most when `accuracy` is set "
+                                 "(capped by TRAJLAB_OCP_MAX_REFINEMENTS)", examples=[8])
 
 
 class OcpGuess(StrictModel):
@@ -188,6 +188,9 @@ class OcpParams(StrictModel):
     guess: OcpGuess = Field(default_factory=OcpGuess, description="Initial guess or warm start")
     accuracy: float | None = Field(None, gt=0, lt=1, description="Target relative error of the re-propagated "
                                    "states (mesh refinement); null: the grid as given", examples=[None])
+    accuracy_required: bool = Field(True, description="With `accuracy`: true fails the job as "
+                                    "accuracy_not_reached when the refinement rounds end short of it (the best "
+                                    "round stored); false accepts the best round with a note", examples=[True])
     plots: list[list[str]] = Field(default_factory=list, max_length=MAX_PLOT_PAIRS,
                                    description="Extra plots: pairs [x, y] of names (t, states, controls, "
                                    "expressions), drawn besides every quantity against time",

@@ -22,6 +22,17 @@ class OcpResultObjective(ResultModel):
     sense: Literal["minimize", "maximize"] = Field(description="minimize or maximize, as posed")
 
 
+class OcpRefinementRound(ResultModel):
+    """One solve of the mesh refinement (round 0: the grid as given)."""
+
+    round: int = Field(description="0 for the grid as given, then 1, 2, ...")
+    intervals: int = Field(description="Mesh intervals of this round")
+    max_error: Num = Field(None, description="Worst scaled state difference of its re-flight (null: not re-flown)")
+    objective: Num = Field(None, description="Objective of this round's answer")
+    iterations: int = Field(description="NLP iterations of this round (its limit rounds included)")
+    time_s: Num = Field(None, description="Wall time of the round: build, solve and re-flight (s)")
+
+
 class OcpResultSolver(ResultModel):
     """How the problem was solved: transcription, NLP solver status, iterations and times."""
 
@@ -39,9 +50,15 @@ class OcpResultSolver(ResultModel):
     terminal_refinements: list[str] | None = Field(
         None, description="Finer grids solved, warm-started, because the re-flight missed a terminal "
         "condition (e.g. '100 intervals x 2 RK4 steps -> 100 intervals x 4 RK4 steps'); absent: none needed")
+    refinement: list[OcpRefinementRound] | None = Field(
+        None, description="Mesh refinement: each round's intervals, worst error, objective, iterations and "
+        "time (with `accuracy`, or when a missed terminal value refined the grid); absent: none")
+    accuracy: Num = Field(None, description="The accuracy the mesh was refined to (null: none asked)")
+    accuracy_reached: bool | None = Field(None, description="The refinement reached `accuracy`")
+    segment_nodes: list[int] | None = Field(None, description="lgl on a refined mesh: nodes of each interval")
     status: str = Field(description="The NLP solver's own status word, e.g. IPOPT's Solve_Succeeded")
     outcome: str | None = Field(None, description="What became of the solve: optimal, infeasible, "
-                                "not_converged, limit_not_held, terminal_not_held, cancelled, failed")
+                                "not_converged, limit_not_held, terminal_not_held, accuracy_not_reached, cancelled, failed")
     message: str | None = Field(None, description="The solver's message")
     iterations: int = Field(description="NLP iterations, all solves")
     build_time_s: Num = Field(description="Time to build the NLP (s); ~0 when the structure was cached")
