@@ -113,8 +113,10 @@ class OcpObjective(StrictModel):
                                                    examples=["minimize"])
     expr: Expression | None = Field(None, description="Mayer term in initial(), final(), t0, tf, parameters "
                                     "and constants", examples=["tf"])
-    integrand: Expression | None = Field(None, description="Lagrange integrand, integrated over the phase "
-                                         "(states, controls, t, expressions)", examples=[None])
+    integrand: Expression | dict[str, Expression] | None = Field(
+        None, description="Lagrange integrand, integrated over the phase (states, controls, t, expressions); "
+        "with several phases one expression integrated over every phase, or an object phase name -> "
+        "expression for those phases only", examples=[None])
 
 
 class OcpTranscription(StrictModel):
@@ -154,8 +156,65 @@ class OcpGuess(StrictModel):
         return v
 
 
+class OcpPhaseTime(StrictModel):
+    """A phase's time window.  The first phase starts at 0 unless ``initial`` (or its bounds) is given;
+    a later phase starts where the one before ends unless a link says otherwise."""
+
+    initial: float | None = _num("t0 of the phase (s); null: free (a later phase: continuous with the one "
+                                  "before)", None)
+    initial_lower: float | None = _num("Lower bound of a free t0 (s)", None)
+    initial_upper: float | None = _num("Upper bound of a free t0 (s)", None)
+    initial_guess: float | None = _num("Guess of a free t0 (s)", None)
+    final: float | None = _num("tf of the phase (s); null: free within final_lower..final_upper", None)
+    final_lower: float | None = _num("Lower bound of a free tf (s)", None)
+    final_upper: float | None = _num("Upper bound of a free tf (s)", 1.0)
+    final_guess: float | None = _num("Guess of a free tf (s)", None)
+
+
+class OcpPhaseGuess(StrictModel):
+    """A phase's initial guess: straight lines (a warm start is params.guess.from_job, for all phases)."""
+
+    states: dict[str, list[float]] = Field(default_factory=dict, description="state name -> [first, last]")
+    controls: dict[str, list[float]] = Field(default_factory=dict, description="control name -> [first, last]")
+    tf: float | None = _num("Guess of the phase's free final time (s)", None)
+
+
+class OcpPhase(StrictModel):
+    """One phase of a multi-phase problem: a single-phase block with a name (constants, tables,
+    parameters and the objective are the problem's)."""
+
+    name: str = Field(description="Unique phase name, used in the event functions initial(x, \"name\"), "
+                      "final(x, \"name\"), t0(\"name\"), tf(\"name\") and in study paths "
+                      "(phases.<name>.time.final_upper)", pattern=r"^[A-Za-z_][A-Za-z0-9_-]*$",
+                      max_length=MAX_NAME_CHARS, examples=["boost"])
+    states: list[OcpState] = Field(default_factory=list, description="The phase's states (a state both "
+                                   "consecutive phases declare is continuous unless a link says otherwise)")
+    controls: list[OcpControl] = Field(default_factory=list, description="The phase's controls")
+    time: OcpPhaseTime = Field(default_factory=OcpPhaseTime, description="The phase's time window")
+    expressions: dict[str, Expression] = Field(default_factory=dict, description="name -> expression, in order")
+    dynamics: dict[str, Expression] = Field(default_factory=dict, description="state name -> its derivative")
+    path: list[OcpConstraint] = Field(default_factory=list, description="Constraints along the phase")
+    boundary: list[OcpConstraint] = Field(default_factory=list, description="Event constraints of this phase "
+                                          "in initial(x), final(x), t0, tf")
+    transcription: OcpTranscription = Field(default_factory=OcpTranscription, description="The phase's grid")
+    guess: OcpPhaseGuess = Field(default_factory=OcpPhaseGuess, description="The phase's initial guess")
+
+
+class OcpLink(OcpConstraint):
+    """lower <= expr <= upper over the phases' events: initial(x, "phase"), final(x, "phase"),
+    t0("phase"), tf("phase"), parameters, constants.  A link relating final(x, "a") and initial(x, "b")
+    of consecutive phases replaces the default continuity of x between them (tf("a") and t0("b"): of
+    time)."""
+
+    expr: Expression = Field(description="An expression over the phases' events",
+                             examples=['initial(m, "stage2") - final(m, "stage1") + 1200'])
+    non_consecutive: bool = Field(False, description="Allow this link to name phases that are not "
+                                  "consecutive (a 422 otherwise)")
+
+
 class OcpParams(StrictModel):
-    """Your own optimal-control problem: declarations, expressions, constraints, objective (one phase)."""
+    """Your own optimal-control problem: declarations, expressions, constraints, objective (one phase),
+    or ``phases`` with ``links`` (several)."""
 
     title: str | None = Field(None, max_length=200, description="Free text shown in the console and report",
                               examples=["Brachistochrone"])
@@ -191,6 +250,13 @@ class OcpParams(StrictModel):
     accuracy_required: bool = Field(True, description="With `accuracy`: true fails the job as "
                                     "accuracy_not_reached when the refinement rounds end short of it (the best "
                                     "round stored); false accepts the best round with a note", examples=[True])
+    phases: list[OcpPhase] | None = Field(
+        None, max_length=20, description="Several phases instead of the single-phase fields (states, controls, "
+        "time, expressions, dynamics, path, boundary, transcription): each a single-phase block with a name; "
+        "consecutive phases continuous in time and in every state both declare", examples=[None])
+    links: list[OcpLink] = Field(default_factory=list, description="With phases: event constraints between "
+                                 "phases (a stage's dropped mass, a time gap); each replaces the default "
+                                 "continuity it relates", examples=[[]])
     plots: list[list[str]] = Field(default_factory=list, max_length=MAX_PLOT_PAIRS,
                                    description="Extra plots: pairs [x, y] of names (t, states, controls, "
                                    "expressions), drawn besides every quantity against time",
@@ -276,9 +342,28 @@ def check_problem(params: OcpParams, settings=None):
     from solvers.ocp.spec import OcpInputError, parse_problem
 
     data = params.model_dump(mode="json")
+    if params.phases is not None:
+        data = _multiphase_data(params)
+    else:
+        data.pop("phases", None)
+        if data.pop("links", None):
+            _fail(("links",), "links relate phases: give params.phases", data)
     try:
         return parse_problem(data, limits(settings))
     except OcpInputError as exc:
         _fail(_loc(exc.path), _setting_of(str(exc.reason)), data)
     except RecursionError:   # defence in depth: the parser bounds its recursion by the node limit
         _fail((), "the problem is nested too deeply", data)
+
+
+def _multiphase_data(params: OcpParams) -> dict:
+    """The params of several phases as the parser reads them: null means not given (so the first
+    phase's t0 defaults to 0), and a single-phase field at its model default counts as absent (a
+    stored job's params carry every default)."""
+    data = params.model_dump(mode="json", exclude_none=True)
+    defaults = OcpParams().model_dump(mode="json", exclude_none=True)
+    out = {k: v for k, v in data.items() if k in ("phases", "objective") or v != defaults.get(k)}
+    guess = {k: v for k, v in (out.pop("guess", None) or {}).items() if v not in ({}, [])}
+    if guess:
+        out["guess"] = guess
+    return out
