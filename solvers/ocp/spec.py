@@ -106,8 +106,9 @@ def parse_problem(params: dict, limits: OcpLimits = OcpLimits()) -> OcpProblem:
     P = "params"
     if not isinstance(params, dict):
         raise OcpInputError(P, "expected an object")
-    if "phases" in params:
-        raise OcpInputError(f"{P}.phases", "several phases are not supported yet; pose a single phase")
+    if params.get("phases") is not None:     # several phases: solvers.ocp.phases_spec (which parses each phase here)
+        from solvers.ocp.phases_spec import parse_phases
+        return parse_phases(params, limits)
     unknown_fields(params, TOP_FIELDS, P)
     title = params.get("title") or ""
     if not isinstance(title, str) or len(title) > 500:
