@@ -92,6 +92,16 @@ class OcpResultTerminalCheck(ResultModel):
     held: bool | None = Field(None, description="miss <= tolerance")
 
 
+class OcpResultLinkCheck(ResultModel):
+    """A stated link between phases, evaluated at the solution."""
+
+    expr: str | None = Field(None, description="The link as written")
+    value: Num = Field(None, description="Its value at the solution")
+    lower: Num = Field(None, description="Lower bound (null: none)")
+    upper: Num = Field(None, description="Upper bound (null: none)")
+    phases: list[str] | None = Field(None, description="The phases it names")
+
+
 class OcpResultVerification(ResultModel):
     """The controls re-flown by an independent integrator on a dense grid, against the solution."""
 
@@ -117,6 +127,33 @@ class OcpResultVerification(ResultModel):
                                     "state's scale")
     ok: bool | None = Field(None, description="The integrator reached the final time")
     message: str | None = Field(None, description="The integrator's message (empty when ok)")
+    links: dict[str, OcpResultLinkCheck] | None = Field(
+        None, description="Several phases: each stated link's value at the solution against its bounds")
+
+
+class OcpResultPhaseSolver(ResultModel):
+    """One phase's transcription."""
+
+    method: str | None = Field(None, description="multiple_shooting or lgl")
+    intervals: int | None = Field(None, description="Mesh intervals of the phase")
+    control: str | None = Field(None, description="linear, constant or polynomial")
+    substeps: int | None = Field(None, description="multiple_shooting: RK4 steps per interval")
+    nodes_per_interval: int | None = Field(None, description="lgl: collocation nodes per interval")
+
+
+class OcpResultPhase(ResultModel):
+    """One phase of a multi-phase answer: its times, ends, trajectory and its own re-flight."""
+
+    name: str = Field(description="The phase's name, as posed")
+    t0: Num = Field(description="The phase's initial time (s)")
+    tf: Num = Field(description="The phase's final time (s)")
+    initial: dict[str, Num] = Field(description="state name -> value at the phase's t0")
+    final: dict[str, Num] = Field(description="state name -> value at the phase's tf")
+    trajectory: dict[str, Series] = Field(description="`t` and the phase's states, controls and expressions "
+                                          "at its nodes")
+    verification: OcpResultVerification | None = Field(None, description="The phase's controls re-flown from "
+                                                       "its own initial state on a dense grid")
+    solver: OcpResultPhaseSolver | None = Field(None, description="The phase's transcription")
 
 
 class OcpResult(ResultModel):
@@ -127,11 +164,14 @@ class OcpResult(ResultModel):
     objective: OcpResultObjective = Field(description="The optimized objective")
     t0: Num = Field(description="Initial time (s)")
     tf: Num = Field(description="Final time (s)")
-    initial: dict[str, Num] = Field(description="state name -> value at t0")
-    final: dict[str, Num] = Field(description="state name -> value at tf")
+    initial: dict[str, Num] = Field(description="state name -> value at t0 (several phases: the first's)")
+    final: dict[str, Num] = Field(description="state name -> value at tf (several phases: the last's)")
     parameters: dict[str, Num] = Field(description="parameter name -> optimal value")
-    trajectory: dict[str, Series] = Field(description="`t` and every state, control and expression at the "
-                                          "nodes, equal-length arrays; null where not finite")
+    trajectory: dict[str, Series] | None = Field(
+        None, description="`t` and every state, control and expression at the nodes, equal-length arrays; "
+        "null where not finite (several phases: in each phase)")
+    phases: list[OcpResultPhase] | None = Field(None, description="Several phases: one block per phase, in "
+                                                "time order; absent for a single phase")
     units: dict[str, str] = Field(default_factory=dict, description="name -> unit, for the names declared "
                                   "with one")
     verification: OcpResultVerification | None = Field(
@@ -150,7 +190,10 @@ def _map(d) -> dict:
 
 
 def build_result(sol, params, *, wall_time_s: float, warm_start: str | None = None) -> dict:
-    """The JSON result of an :class:`solvers.ocp.OcpSolution` (plain floats and lists)."""
+    """The JSON result of an :class:`solvers.ocp.OcpSolution` (plain floats and lists), or of a
+    :class:`solvers.ocp.MultiPhaseSolution` (``phases``)."""
+    if getattr(sol, "phases", None) is not None:
+        return _phases_result(sol, params, wall_time_s=wall_time_s, warm_start=warm_start)
     s = sol.status
     solver = dict(json_value(getattr(sol, "solver", None) or {}))
     solver.setdefault("method", params.transcription.method)
@@ -177,4 +220,36 @@ def build_result(sol, params, *, wall_time_s: float, warm_start: str | None = No
         "warm_start": warm_start,
         "wall_time_s": json_float(wall_time_s),
         "notes": [str(n) for n in (getattr(sol, "notes", None) or [])],
+    }
+
+
+def _phases_result(sol, params, *, wall_time_s: float, warm_start: str | None) -> dict:
+    """Several phases: the single phase's top-level fields (``initial`` of the first phase, ``final``
+    of the last, no top-level ``trajectory``) and one block per phase."""
+    s = sol.status
+    solver = dict(json_value(sol.solver))
+    solver.update({"status": s.solver_status, "outcome": s.outcome.value, "message": s.message or None,
+                   "iterations": int(s.iterations), "build_time_s": json_float(s.build_time_s),
+                   "solve_time_s": json_float(s.solve_time_s),
+                   "max_constraint_violation": json_float(s.max_constraint_violation)})
+    units = {d.name: d.unit for ph in params.phases for d in (*ph.states, *ph.controls) if d.unit}
+    phases = [{"name": p["name"], "t0": json_float(p["t0"]), "tf": json_float(p["tf"]),
+               "initial": _map(p["initial"]), "final": _map(p["final"]),
+               "trajectory": {str(k): json_value(v) for k, v in p["trajectory"].items()},
+               "verification": json_value(p["verification"]), "solver": json_value(p["solver"])}
+              for p in sol.phases]
+    return {
+        "title": params.title,
+        "objective": {"value": json_float(sol.objective), "sense": sol.sense},
+        "t0": json_float(sol.t0), "tf": json_float(sol.tf),
+        "initial": phases[0]["initial"], "final": phases[-1]["final"],
+        "parameters": _map(sol.parameters),
+        "phases": phases,
+        "units": units,
+        "verification": json_value(sol.verification),
+        "solver": solver,
+        "plots": [list(p) for p in params.plots],
+        "warm_start": warm_start,
+        "wall_time_s": json_float(wall_time_s),
+        "notes": [str(n) for n in sol.notes],
     }
