@@ -38,8 +38,8 @@ async def _lifespan(_app: FastAPI):
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:
-    from app.api.routes import (console, docs, events, health, jobs, lambert, metrics, presets,  # after settings: routes read the registry
-                                results, studies, vehicles)
+    from app.api.routes import (console, console_summary, docs, events, guide, health, jobs, lambert,  # after settings:
+                                metrics, presets, results, studies, usage, vehicles)  # routes read the registry
     from app.service.broker import create_publisher
     from app.api.schemas import ValidationErrorBody
 
@@ -77,12 +77,15 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(events.router, responses=needs_key)
     app.include_router(results.router, responses=needs_key)
     app.include_router(console.router)
+    app.include_router(console_summary.router)
     console.mount_static(app)
     app.include_router(presets.router)
     app.include_router(vehicles.router)
     app.include_router(studies.router, responses=bad_body | needs_key)
+    app.include_router(usage.router, responses=needs_key)
     app.include_router(lambert.router, responses=bad_body | needs_key, max_body_size=lambert.max_body_bytes(settings))
     app.include_router(health.router)
     app.include_router(metrics.router)
     docs.mount(app)  # /docs and /redoc from packaged assets: they work offline
+    guide.mount(app)  # /guide: the user guide (MkDocs) built by `make guide`
     return app

@@ -42,14 +42,22 @@ def _print_job(job: dict) -> None:
 
 
 def _print_numbers(client, job: dict) -> None:
-    from app.service.summary import key_numbers
+    """The headline numbers (app.kinds.headlines), then the key numbers; a failure explained with what
+    to try (app.kinds.failures), on stderr."""
+    from app.service.summary import headlines, key_numbers
 
     if job["status"] == "succeeded":
-        numbers = key_numbers(job["kind"], client.result(job["id"]))
+        result = client.result(job["id"])
+        for line in headlines(job["kind"], result, job.get("params")):
+            print(f"= {line['text']}")
+        numbers = key_numbers(job["kind"], result)
         for name, value in numbers.items():
             print(f"  {name:<32} {value:.6g}" if isinstance(value, float) else f"  {name:<32} {value}")
     elif job.get("error"):
-        print(f"  {job['error'].get('code')}: {job['error'].get('message')}", file=sys.stderr)
+        from app.kinds.failures import as_lines, explain
+
+        for line in as_lines(explain(job["error"])):
+            print(f"  {line}", file=sys.stderr)
 
 
 def _follow(client, job_id: str, *, quiet: bool) -> dict:

@@ -144,6 +144,9 @@ class KindSpec:
     cost: Callable[[dict], float] | None = None
     # The plots of one result (app.results.plots.PlotDef list; app/kinds/<kind>/plots.py); None: no plots.
     plots: Callable[[dict], list] | None = None
+    # The headline numbers of one result, (result, params) -> list[app.kinds.headlines.Headline]
+    # (app/kinds/<kind>/headlines.py): what the CLI, the console, the job list and the report lead with.
+    headlines: Callable[[dict, dict | None], list] | None = None
 
 
 def json_float(x) -> float | None:

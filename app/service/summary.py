@@ -46,3 +46,21 @@ def key_numbers(kind: str, result: dict | None) -> dict[str, Any]:
         except (KeyError, TypeError, ValueError):
             pass  # an older stored result without the fields the kind picks now
     return _generic(result)
+
+
+def headlines(kind: str, result: dict | None, params: dict | None = None) -> list[dict]:
+    """The kind's headline numbers (app.kinds.headlines) as dicts; a kind that declares none, or a stored
+    result older than the fields it reads, gets its key numbers as plain lines."""
+    if not result:
+        return []
+    from app.kinds import KINDS
+    from app.kinds.headlines import number
+
+    declare = getattr(KINDS.get(kind), "headlines", None)
+    if declare is not None:
+        try:
+            return [h.as_dict() for h in declare(result, params)]
+        except (KeyError, TypeError, ValueError, AttributeError):
+            pass  # an older stored result without the fields the kind reads now
+    return [number(name, value).as_dict() for name, value in key_numbers(kind, result).items()
+            if isinstance(value, (int, float)) and not isinstance(value, bool)]

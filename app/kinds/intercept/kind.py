@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 
 from app.kinds.base import JobContext, KindSpec, Preset, RunOutcome, outcome_from_status, warm_start_from_job
+from app.kinds.intercept.headlines import headlines
 from app.kinds.intercept.plots import plots
 from app.kinds.intercept.params import InterceptParams
 from app.kinds.intercept.result_model import InterceptResult
@@ -152,6 +153,7 @@ SPEC = KindSpec(
     run=run,
     presets=PRESETS,
     plots=plots,
+    headlines=headlines,
     summary="Long-range interception: single-impulse Lambert scan (and porkchop) and finite-thrust fuel-optimal",
     key_numbers=key_numbers,
     result_model=InterceptResult,

@@ -15,6 +15,7 @@ import math
 import time
 
 from app.kinds.base import JobContext, KindSpec, Preset, RunOutcome, json_float, outcome_from_status
+from app.kinds.midcourse.headlines import headlines
 from app.kinds.midcourse.plots import plots
 from app.kinds.midcourse.params import MidcourseParams
 from app.kinds.midcourse.result_model import MidcourseResult
@@ -211,6 +212,7 @@ SPEC = KindSpec(
     run=run,
     presets=PRESETS,
     plots=plots,
+    headlines=headlines,
     time_limit_s=900.0,
     summary="Midcourse-correction timing on a transfer orbit: J2 coasts, Lambert re-targeting, NSGA-II front",
     key_numbers=key_numbers,

@@ -19,6 +19,7 @@ from app.kinds.base import (
     outcome_from_status,
 )
 from app.kinds.ocp.params import OcpParams
+from app.kinds.ocp.headlines import headlines
 from app.kinds.ocp.plots import plots
 from app.kinds.ocp.result import OcpResult, build_result
 from solvers.ocp import cases
@@ -134,4 +135,5 @@ SPEC = KindSpec(
     result_model=OcpResult,
     cost=cost,
     plots=plots,
+    headlines=headlines,
 )

@@ -11,6 +11,7 @@ import math
 
 from app.kinds.base import JobContext, KindSpec, Preset, RunOutcome, outcome_from_status, warm_start_from_job
 from app.kinds.reentry.edge import guess_from_result, reentry_result, to_problem
+from app.kinds.reentry.headlines import headlines
 from app.kinds.reentry.plots import plots
 from app.kinds.reentry.params import BETTS_HEAT_LIMIT_W_M2, PAPER000_TERMINAL_ALTITUDE_M, ReentryParams
 from app.kinds.reentry.result_model import ReentryResult
@@ -118,6 +119,6 @@ def run(params: ReentryParams, ctx: JobContext) -> RunOutcome:
 
 
 SPEC = KindSpec(kind="reentry", params_model=ReentryParams, run=run, presets=PRESETS, result_model=ReentryResult,
-                plots=plots,
+                plots=plots, headlines=headlines,
                 summary="Lifting reentry (Space Shuttle, Betts benchmark and paper 000) by direct "
                         "multiple shooting with IPOPT")

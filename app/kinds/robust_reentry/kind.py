@@ -19,6 +19,7 @@ from app.kinds.base import (
 )
 from app.kinds.reentry.edge import (guess_from_result, json_list, objective_block, reentry_result,
                                     result_blocks, to_problem)
+from app.kinds.robust_reentry.headlines import headlines
 from app.kinds.robust_reentry.plots import plots
 from app.kinds.robust_reentry.params import STATES_BY_NAME, RobustReentryParams
 from app.kinds.robust_reentry.result_model import RobustReentryResult
@@ -313,6 +314,6 @@ def run(params: RobustReentryParams, ctx: JobContext) -> RunOutcome:
 
 
 SPEC = KindSpec(kind="robust_reentry", params_model=RobustReentryParams, run=run, presets=PRESETS, time_limit_s=1800.0,
-                result_model=RobustReentryResult, plots=plots,
+                result_model=RobustReentryResult, plots=plots, headlines=headlines,
                 summary="Robust reentry (paper 001): CADET mean/covariance propagation, mean - k sigma design, "
                         "Monte Carlo validation of the deterministic and robust controls")

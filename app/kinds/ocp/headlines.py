@@ -1,0 +1,35 @@
+"""The ``ocp`` kind's headline numbers (app.kinds.headlines): the objective as the problem wrote it
+(sense and expression, with the unit when the expression is a state or the final time), and whether the
+dense re-flight kept every limit and met every terminal condition."""
+from __future__ import annotations
+
+from app.kinds.headlines import Headline, number, terminal_headline, verdict
+
+
+def _objective_words(params: dict | None) -> tuple[str, str]:
+    """(words, unit) of the objective: "minimize tf" in s; a state's own unit when it is one state."""
+    objective = (params or {}).get("objective") or {}
+    expr = objective.get("expr") or ("integral of " + objective["integrand"] if objective.get("integrand") else "")
+    sense = objective.get("sense") or "minimize"
+    units = {s.get("name"): s.get("unit") or "" for s in (params or {}).get("states") or []}
+    final = expr[len("final("):-1] if expr.startswith("final(") and expr.endswith(")") else None
+    unit = "s" if expr in ("tf", "t_f") else units.get(final or expr, "")
+    return (f"{sense} {expr}" if expr else sense), unit
+
+
+def headlines(result: dict, params: dict | None = None) -> list[Headline]:
+    words, unit = _objective_words(params)
+    out = [number(f"objective ({words})", result["objective"].get("value"), unit, digits=6)]
+    if result.get("tf") is not None and unit != "s":
+        out.append(number("final time", result["tf"], "s", digits=5))
+    v = result.get("verification") or {}
+    if isinstance(v.get("limits_held"), bool):
+        out.append(verdict("path limits", held=v["limits_held"], value=None, unit="",
+                           detail=f"on the dense re-flight (tolerance {v.get('limit_tolerance')})"))
+    terminal = terminal_headline(v)
+    if terminal:
+        out.append(terminal)
+    if isinstance(v.get("agrees"), bool):
+        out.append(verdict("re-flight", held=v["agrees"], value=v.get("max_state_difference_scaled_overall"),
+                           unit="", detail=v.get("message") or "", words=("agrees", "disagrees")))
+    return out
