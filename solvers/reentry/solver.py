@@ -24,6 +24,7 @@ import casadi as ca
 import numpy as np
 
 from solvers.common import Outcome, ProgressFn, StopFn
+from solvers.models.aero_coverage import aero_coverage_notes
 from solvers.models import reentry_dynamics as dyn
 from solvers.models import shuttle as sh
 from solvers.models import vehicle_data as vd
@@ -372,6 +373,7 @@ def _solution(problem, tr, res, build_time, notes, stages, *, ver=None, report=N
                 f"{problem.limit_rounds}); the best answer is stored as the diagnostic")
     if terminal is not None:
         _terminal_verdict(problem, status, ver, terminal, notes)
+    notes += aero_coverage_notes(problem.vehicle, res.x, u_nodes[ALPHA], alpha_bounds_rad=problem.alpha_bounds_rad)
     return ReentrySolution(status=status, objective_name=problem.objective, objective_value=value,
                            objective_unit=unit, tf_s=res.tf, t=res.t, x=res.x, u=res.u, u_nodes_at_t=u_nodes,
                            heat_rate=np.asarray(q, float), verification=ver, notes=notes,
