@@ -65,7 +65,7 @@ def _ms_interval(fns: PhaseFunctions, grid: Grid) -> ca.Function:
         k3 = f(t + 0.5 * dt, x + 0.5 * dt * k2[:nx], um)
         k4 = f(t + dt, x + dt * k3[:nx], u1)
         incr = dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
-        x, q = x + incr[:nx], q + incr[nx:]
+        x, q = x + incr[:nx], q + incr[nx:, 0]      # [nx:, 0]: 0x1 also when nx == 1 (CasADi)
     return ca.Function("ocp_interval", [xa, ua, ub, ta, h, theta, c, t0, tf], [x, q])
 
 
