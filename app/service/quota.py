@@ -21,8 +21,10 @@ has ``max_queued_per_owner`` queued jobs, ``max_active_per_owner`` queued plus
 running jobs, or when its cost would take the owner's queued plus running cost
 past ``max_active_cost_per_owner``.  A job whose cost alone exceeds that budget
 is still admitted when the owner has nothing else active: the per-field caps of
-each kind bound it, and refusing it would refuse it forever.  With auth off
-(one local user, owner None) no quota applies.
+each kind bound it, and refusing it would refuse it forever.  With
+``max_stored_mb_per_owner`` set, a submission is also refused while the owner's jobs keep that much
+(params and compressed results: ``jobs.stored_bytes``, app.service.storage) until some are deleted.
+With auth off (one local user, owner None) no quota applies.
 
 Jobs costing more than ``heavy_cost``, and every ``robust_reentry``, go to the
 heavy queue, so quick jobs never wait behind them (workers per queue: README).
@@ -34,7 +36,7 @@ import math
 from sqlalchemy import Connection
 from sqlalchemy.orm import Session
 
-from app.service import jobs
+from app.service import jobs, storage
 from app.service.broker import QUEUE_HEAVY, QUEUE_JOBS
 from app.runtime.db import Database
 from app.runtime.settings import Settings
@@ -132,3 +134,10 @@ def check_quota_in(session: Session | Connection, settings: Settings, *, owner: 
         raise QuotaExceeded(f"estimated cost {cost:.0f} on top of {used:.0f} queued or running would pass the "
                             f"budget of {settings.max_active_cost_per_owner:.0f} per owner "
                             "(TRAJLAB_MAX_ACTIVE_COST_PER_OWNER)", retry)
+    cap = storage.max_stored_bytes(settings)
+    if cap is not None:
+        stored = storage.owner_stored_bytes(session, owner)
+        if stored >= cap:
+            raise QuotaExceeded(f"this owner's jobs keep {stored / storage.MB:.1f} MiB; at most "
+                                f"{settings.max_stored_mb_per_owner:g} MiB per owner (TRAJLAB_MAX_STORED_MB_PER_OWNER): "
+                                "delete jobs (DELETE /v1/jobs/{id}, trajlab delete) to submit more", retry)

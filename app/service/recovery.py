@@ -10,7 +10,8 @@ Every ``reaper_interval_s`` it
   died between commit and publish).  On Redis it looks into the queues and the
   unacknowledged set, so a job waiting its turn in a long backlog is not sent
   twice; duplicates would be harmless anyway (the attempt token);
-* moves trade studies on whose points ended without the worker's hook.
+* moves trade studies on whose points ended without the worker's hook;
+* applies ``TRAJLAB_RETENTION_DAYS`` (app.service.retention), at most every ``retention_interval_s``.
 
 It runs outside Celery (a thread of ``trajlab serve``, or ``trajlab recover`` in
 production, exactly one per deployment), so a backlog in the job queues never
@@ -24,7 +25,7 @@ import re
 import threading
 import time
 
-from app.service import jobs, metrics, studies
+from app.service import jobs, metrics, retention, studies
 from app.service.broker import QUEUES, create_publisher, publish_job, redis_client
 from app.runtime.db import Database, get_database
 from app.runtime.settings import Settings
@@ -74,6 +75,7 @@ class Recovery:
         self.db = db or get_database(settings.database_url, settings)
         self.celery = create_publisher(settings)
         self.redis = redis_client(settings.broker_url, settings=settings)
+        self.retention = retention.Retention(settings)
         self._stop = threading.Event()
 
     def _publish(self, job) -> bool:
@@ -96,6 +98,9 @@ class Recovery:
                 done["republished"] = len(sent)
                 log.warning("re-published %d queued job(s) missing from the broker", len(sent))
         done["study_points"] = sum(self._publish(job) for job in studies.advance_all(self.db))
+        purged = self.retention.run_if_due(self.db)
+        if purged is not None:
+            done["purged_jobs"], done["purged_studies"] = purged["jobs"], purged["studies"]
         metrics.count(self.redis, "reaped", done["requeued"])
         metrics.count(self.redis, "republished", done["republished"])
         metrics.beat(self.redis)  # a complete pass: trajlab_recovery_heartbeat_timestamp_seconds

@@ -28,6 +28,7 @@ from sqlalchemy import select
 
 from app.runtime.db import Database
 from app.runtime.models import FINAL_STATUSES, Job, JobResult, Study, utcnow
+from app.service import storage
 from app.service.summary import FIXED_OBJECTIVE, WARM_START_FIELD, key_numbers
 
 MAX_POINTS = 200
@@ -55,6 +56,10 @@ def sweep_paths(sweep: dict) -> list[str]:
 def _step(node, part: str, path: str):
     if isinstance(node, list) and part.isdigit() and int(part) < len(node):
         return int(part)  # an element of a list parameter, e.g. tf_bounds_s.1
+    if isinstance(node, list):  # an element by its name, e.g. an ocp phase: phases.coast.time.final_upper
+        named = [i for i, item in enumerate(node) if isinstance(item, dict) and item.get("name") == part]
+        if len(named) == 1:
+            return named[0]
     if isinstance(node, dict) and part in node:
         return part
     raise KeyError(f"{path}: no parameter {part}")
@@ -101,7 +106,7 @@ def _point_job(study: Study, point_index: int, params: dict, values: dict) -> Jo
     return Job(kind=study.kind, params=params, label=label[:200], preset=study.preset, status="queued",
                progress=0.0, message="queued", attempts=1, cancel_requested=False, created_at=now,
                published_at=now, owner=study.owner, queue=study.queue, study_id=study.id,
-               study_index=point_index)
+               study_index=point_index, stored_bytes=storage.params_bytes(params))
 
 
 def create_study(db: Database, *, kind: str, preset: str | None, label: str | None, base_params: dict,
@@ -148,7 +153,7 @@ def objective_values(session, kind: str, jobs_: list[Job]) -> dict[str, float]:
     for job in jobs_:
         row = session.get(JobResult, job.id) if job.status == "succeeded" else None
         try:
-            value = float(get_path(row.data, path)) if row is not None else None
+            value = float(get_path(storage.read_result(row), path)) if row is not None else None
         except (KeyError, TypeError, ValueError):
             value = None
         if value is not None:

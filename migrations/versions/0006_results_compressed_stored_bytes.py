@@ -29,7 +29,10 @@ def upgrade() -> None:
         batch_op.add_column(sa.Column('packed', sa.LargeBinary(), nullable=True))
         batch_op.add_column(sa.Column('encoding', sa.String(length=16), nullable=True))
         batch_op.alter_column('data', existing_type=sa.JSON(), nullable=True)
-    with op.batch_alter_table('jobs', schema=None) as batch_op:
+    # recreate='never': on SQLite a batch that copies ``jobs`` drops the old table, and with foreign keys
+    # on (app.runtime.db) that DROP deletes every job_results row by ON DELETE CASCADE.  Adding and
+    # dropping a plain column and an index are ALTER TABLE statements SQLite has (3.35+).
+    with op.batch_alter_table('jobs', schema=None, recreate='never') as batch_op:
         batch_op.add_column(sa.Column('stored_bytes', sa.BigInteger(), server_default='0', nullable=False))
         batch_op.create_index('ix_jobs_status_finished_at', ['status', 'finished_at'], unique=False)
     # what the older rows hold: the params' and the result's JSON text, measured by the database
@@ -50,7 +53,7 @@ def downgrade() -> None:
         row = conn.execute(sa.select(results.c.packed, results.c.encoding).where(results.c.job_id == job_id)).one()
         conn.execute(sa.update(results).where(results.c.job_id == job_id).values(
             data=decode(row.packed, row.encoding), packed=None, encoding=None))
-    with op.batch_alter_table('jobs', schema=None) as batch_op:
+    with op.batch_alter_table('jobs', schema=None, recreate='never') as batch_op:  # see upgrade()
         batch_op.drop_index('ix_jobs_status_finished_at')
         batch_op.drop_column('stored_bytes')
     with op.batch_alter_table('job_results', schema=None) as batch_op:

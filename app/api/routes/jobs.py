@@ -1,4 +1,4 @@
-"""/v1/jobs: submit, list, get, result, cancel."""
+"""/v1/jobs: submit, list, get, result, cancel, delete."""
 from __future__ import annotations
 
 import hashlib
@@ -9,7 +9,7 @@ from typing import Annotated, Literal
 from fastapi import APIRouter, Body, Header, HTTPException, Query, Request, Response
 from fastapi.responses import JSONResponse
 
-from app.service import jobs, quota
+from app.service import jobs, quota, retention
 from app.api.access import PrincipalDep, not_found, visible_job
 from app.api.deps import DatabaseDep
 from app.kinds import KINDS, PRESETS
@@ -17,6 +17,7 @@ from app.api.params import resolve_params
 from app.api.warm_start import check_warm_starts
 from app.results.compact import compact
 from app.api.result_body import JobResult, result_json
+from app.api.routes.results import forget
 from app.api.schemas import (ErrorBody, JobList, JobOut, JobStatus, JobSubmission, NotSucceededBody,
                              ValidationErrorBody)
 from app.runtime import logs
@@ -142,6 +143,20 @@ def get_result(job_id: str, db: DatabaseDep, principal: PrincipalDep,
     # validated by the kind's model and written by pydantic-core (app.api.result_body.result_json)
     return Response(result_json(job.kind, compact(job.kind, result, set(include))), media_type="application/json",
                     headers=headers)
+
+
+@router.delete("/{job_id}", status_code=204, response_class=Response,
+               responses={204: {"description": "Deleted: the job, its result and its cached files are gone; "
+                                               "the job is 404 from now on"},
+                          404: {"model": ErrorBody, "description": "Unknown job (or another owner's)"}})
+def delete_job(job_id: str, db: DatabaseDep, principal: PrincipalDep) -> Response:
+    """Delete a job with its result, by its owner or an admin. A queued or running job is cancelled
+    first (its worker stops at the next heartbeat and stores nothing)."""
+    visible_job(db, job_id, principal)
+    if not retention.delete_job(db, job_id):
+        raise not_found(job_id)
+    forget([job_id])
+    return Response(status_code=204)
 
 
 @router.post("/{job_id}/cancel", status_code=202, response_model=JobOut, responses={404: {"model": ErrorBody, "description": "Unknown job"}})

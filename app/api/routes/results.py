@@ -26,7 +26,7 @@ from app.api.schemas import ErrorBody
 from app.api.security_headers import REPORT_CSP
 from app.results.report import render_report
 from app.results.tables import tables_for, to_csv
-from app.service.summary import key_numbers
+from app.service.summary import headlines, key_numbers
 
 router = APIRouter(prefix="/v1/jobs", tags=["results"])
 CACHE_CONTROL = "private, max-age=86400"
@@ -47,6 +47,15 @@ def _cached(key: tuple, make) -> bytes:
         while len(_CACHE) > _CACHE_ENTRIES:
             _CACHE.popitem(last=False)
     return value
+
+
+def forget(job_ids) -> None:
+    """Drop a deleted job's renderings from this process's cache (another API process's copies can no
+    longer be reached: every route loads the job first, a 404 once it is deleted, and they age out)."""
+    gone = set(job_ids)
+    with _CACHE_LOCK:
+        for key in [k for k in _CACHE if k[0] in gone]:
+            del _CACHE[key]
 
 
 def _succeeded(db, job_id: str, principal):
@@ -120,6 +129,7 @@ async def get_report(job_id: str, db: DatabaseDep, principal: PrincipalDep,
             p, result=result, params=job.params, title=_title(job), fmt="svg")).decode())
             for p in plot_defs.plots_for(job.kind, result)]
         return render_report(job=jobs.job_to_dict(job), result=result, key_numbers=key_numbers(job.kind, result),
+                             headlines=headlines(job.kind, result, job.params),
                              svgs=svgs).encode()
 
     body = await run_in_threadpool(_cached, (job_id, "report", "html"), make)

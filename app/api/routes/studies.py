@@ -11,12 +11,13 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import PlainTextResponse
 from pydantic import BaseModel, Field, model_validator
 
-from app.service import quota, studies
+from app.service import quota, retention, studies
 from app.api.access import Principal, PrincipalDep
 from app.service.recovery import publish_or_defer
 from app.api.deps import CeleryDep, DatabaseDep, SettingsDep
 from app.kinds import KINDS, PRESETS
 from app.api.params import deep_merge, resolve_params
+from app.api.routes.results import forget
 from app.api.warm_start import check_warm_starts
 from app.service.study_presets import STUDY_PRESETS
 
@@ -217,6 +218,20 @@ def cancel_study(study_id: str, db: DatabaseDep, principal: PrincipalDep):
     _visible(db, study_id, principal)
     studies.request_cancel(db, study_id)
     return studies.summary(db, studies.get_study(db, study_id))
+
+
+@router.delete("/{study_id}", status_code=204, response_class=Response,
+               responses={204: {"description": "Deleted with every point job (running points are cancelled "
+                                               "first); 404 from now on"},
+                          404: {"description": "Unknown study (or another owner's)"}})
+def delete_study(study_id: str, db: DatabaseDep, principal: PrincipalDep) -> Response:
+    """Delete a study and every point job with its result, by its owner or an admin."""
+    _visible(db, study_id, principal)
+    deleted = retention.delete_study(db, study_id)
+    if deleted is None:
+        raise HTTPException(status_code=404, detail=f"study {study_id} not found")
+    forget(deleted)
+    return Response(status_code=204)
 
 
 @router.get("/{study_id}/plot.{fmt}", responses={404: {"description": "Unknown study"},
