@@ -144,3 +144,18 @@ class Study(Base):
     finished_at: Mapped[datetime | None] = mapped_column(DateTime(timezone=True))
 
     __table_args__ = (Index("ix_studies_owner_created_at", "owner", "created_at"),)
+
+
+class Lease(Base):
+    """A named duty at most one process performs at a time (app.service.lease): the recovery loop's
+    reaper, re-publisher, studies and retention run in every worker, and the holder of the row named
+    ``recovery`` does them.  ``renewed_at`` is the recovery heartbeat ``/readyz`` reads."""
+
+    __tablename__ = "leases"
+
+    name: Mapped[str] = mapped_column(String(64), primary_key=True)
+    holder: Mapped[str | None] = mapped_column(String(200))
+    acquired_at: Mapped[datetime | None] = mapped_column(DateTime(timezone=True))
+    renewed_at: Mapped[datetime | None] = mapped_column(DateTime(timezone=True))
+    # free when in the past: a candidate takes it; the holder pushes it forward on each renewal
+    expires_at: Mapped[datetime] = mapped_column(DateTime(timezone=True))
