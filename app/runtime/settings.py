@@ -69,6 +69,16 @@ class Settings(BaseSettings):
     reaper_interval_s: float = Field(default=15.0, description="Period of the recovery loop (reaper, re-publisher)")
     republish_after_s: float = Field(
         default=30.0, description="A queued job published longer ago than this and missing from the broker is re-sent")
+    # The recovery duties run in every worker's main process (and trajlab serve, trajlab recover) under a
+    # lease in the database (app.service.lease): its holder renews it every third of its length; when the
+    # holder dies another candidate takes over within about 4/3 of it.  /readyz reports the recovery
+    # heartbeat stale past one length.
+    recovery_lease_s: float = Field(
+        default=10.0, ge=1, description="Length of the recovery lease: a dead holder is replaced within about "
+                                        "4/3 of it, and /readyz is 503 when no holder renewed it for this long")
+    recovery_in_worker: bool = Field(
+        default=True, description="Each Celery worker's main process is a candidate for the recovery lease "
+                                  "(false: only trajlab recover and trajlab serve run recovery)")
     db_retry_max_s: float = Field(
         default=30.0, description="Longest backoff of a worker retrying a delivery while the database is down")
     max_attempts: int = Field(default=3, ge=1, description="Deliveries of one job before it fails with worker_lost")
