@@ -18,8 +18,16 @@ def _fmt(v) -> str:
     return str(v)
 
 
-def render_report(*, job: dict, result: dict, key_numbers: dict, svgs: list[tuple[str, str]]) -> str:
-    blocks = [f"<h2>Key numbers</h2>{_table(key_numbers)}"]
+def _headlines(lines: list[dict]) -> str:
+    """The kind's headline numbers (app.kinds.headlines), one line each, the verdict marked."""
+    items = "".join(f"<li class=\"{'good' if h.get('good') else 'bad' if h.get('good') is False else ''}\">"
+                    f"{html.escape(h['text'])}</li>" for h in lines)
+    return f"<ul class=\"headlines\">{items}</ul>" if items else ""
+
+
+def render_report(*, job: dict, result: dict, key_numbers: dict, svgs: list[tuple[str, str]],
+                  headlines: list[dict] | None = None) -> str:
+    blocks = [f"<h2>Key numbers</h2>{_headlines(headlines or [])}{_table(key_numbers)}"]
     for label, block in _blocks(result):
         blocks.append(f"<h2>{html.escape(label)}</h2>{_table(block)}")
     notes = _notes(result)
@@ -39,6 +47,7 @@ table {{ border-collapse: collapse; margin: .5em 0; }} th, td {{ border-bottom: 
 padding: .2em .8em; text-align: left; }} th {{ font-weight: 500; color: #5b6475; }}
 figure {{ margin: 1.5em 0; }} figure svg {{ max-width: 100%; height: auto; }}
 pre {{ background: #f4f6fa; padding: .8em; overflow: auto; }}
+ul.headlines {{ font-size: 16px; }} li.good {{ color: #1b6e3a; }} li.bad {{ color: #a3261b; }}
 </style></head><body>
 <h1>{title}</h1>
 <p>status <b>{html.escape(job['status'])}</b>, created {html.escape(str(job['created_at']))}, finished

@@ -119,6 +119,8 @@ def test_the_console_summary_of_a_succeeded_and_a_failed_job(tmp_path):
         ok = client.get(f"/console/jobs/{ids['succeeded']}/summary").json()
         assert ok["preset"] == "betts-max-crossrange-heat-limited" and ok["failure"] is None
         assert ok["headlines"][0]["unit"] == "deg"
+        report = client.get(f"/v1/jobs/{ids['succeeded']}/report.html").text
+        assert all(h["text"] in report for h in ok["headlines"])
         listed = client.get("/console/headlines", params={"ids": f"{ids['succeeded']},{ids['failed']},{'0' * 32}"})
         assert listed.json() == {ids["succeeded"]: ok["headlines"][0]["text"]}
         bad = client.get(f"/console/jobs/{ids['failed']}/summary").json()
