@@ -116,6 +116,14 @@ class Client:
     def cancel(self, job_id: str) -> dict:
         return self._request("POST", f"/v1/jobs/{job_id}/cancel").json()
 
+    def delete(self, job_id: str) -> None:
+        """Delete a job with its result (cancelled first if it is queued or running); 404 afterwards."""
+        self._request("DELETE", f"/v1/jobs/{job_id}")
+
+    def usage(self) -> dict:
+        """``GET /v1/usage``: the caller's jobs by status, the bytes they keep and the storage quota."""
+        return self._request("GET", "/v1/usage").json()
+
     def result(self, job_id: str) -> dict:
         return self._request("GET", f"/v1/jobs/{job_id}/result").json()
 
@@ -183,6 +191,10 @@ class Client:
 
     def cancel_study(self, study_id: str) -> dict:
         return self._request("POST", f"/v1/studies/{study_id}/cancel").json()
+
+    def delete_study(self, study_id: str) -> None:
+        """Delete a study with every point job (running points cancelled first)."""
+        self._request("DELETE", f"/v1/studies/{study_id}")
 
     def wait_study(self, study_id: str, *, on_update: Callable[[dict], None] | None = None,
                    timeout: float | None = None, poll_s: float = 1.0) -> dict:

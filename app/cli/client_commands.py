@@ -1,4 +1,5 @@
-"""``trajlab submit | jobs | show | wait | cancel | result``: the command-line client of any trajlab URL.
+"""``trajlab submit | jobs | show | wait | cancel | result | delete | usage``: the command-line client of any
+trajlab URL.
 
 Exit codes a script can use: 0 succeeded (or done), 1 failed, 2 bad input
 (the API's 4xx, printed as its one-line message), 3 cancelled, 4 the service
@@ -152,6 +153,23 @@ def cmd_cancel(args) -> int:
     return EXIT[job["status"]]
 
 
+def cmd_delete(args) -> int:
+    client = _client(args)
+    for job_id in args.ids:
+        client.delete(job_id)
+        print(f"{job_id}  deleted")
+    return 0
+
+
+def cmd_usage(args) -> int:
+    u = _client(args).usage()
+    cap = "no quota" if u["max_stored_bytes"] is None else f"quota {u['max_stored_bytes'] / 2**20:.1f} MiB"
+    keep = "kept until deleted" if u["retention_days"] is None else f"deleted {u['retention_days']:g} days after finishing"
+    print(f"{u['jobs']} jobs ({', '.join(f'{n} {s}' for s, n in u['jobs_by_status'].items()) or 'none'}); "
+          f"{u['stored_bytes'] / 2**20:.2f} MiB stored, {cap}; finished jobs {keep}")
+    return 0
+
+
 def cmd_result(args) -> int:
     client = _client(args)
     text = client.result_csv(args.id, args.csv) if args.csv else json.dumps(client.result(args.id), indent=2)
@@ -199,6 +217,11 @@ def add_commands(sub) -> None:
     p.add_argument("--csv", metavar="TABLE")
     p.add_argument("--out", metavar="FILE")
     p.set_defaults(fn=cmd_result)
+    p = common(sub.add_parser("delete", help="delete jobs with their results (a running one is cancelled first)"))
+    p.add_argument("ids", nargs="+", metavar="JOB_ID")
+    p.set_defaults(fn=cmd_delete)
+    p = common(sub.add_parser("usage", help="your jobs, the bytes they keep and the storage quota"))
+    p.set_defaults(fn=cmd_usage)
 
 
 def run(args) -> int:

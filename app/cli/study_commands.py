@@ -137,9 +137,15 @@ def cmd_study_list(args) -> int:
     return 0
 
 
+def cmd_study_delete(args) -> int:
+    _client(args).delete_study(args.id)
+    print(f"{args.id}  deleted with its jobs")
+    return 0
+
+
 def add_commands(sub) -> None:
-    study = sub.add_parser("study", help="trade studies: submit, wait, result, list")
-    verbs = study.add_subparsers(dest="study_command", required=True, metavar="{submit,wait,result,list}")
+    study = sub.add_parser("study", help="trade studies: submit, wait, result, list, delete")
+    verbs = study.add_subparsers(dest="study_command", required=True, metavar="{submit,wait,result,list,delete}")
 
     def common(p):
         p.add_argument("--url", help="trajlab service URL (TRAJLAB_URL; default http://127.0.0.1:8000)")
@@ -174,3 +180,6 @@ def add_commands(sub) -> None:
     p = common(verbs.add_parser("list", help="studies, newest first"))
     p.add_argument("--limit", type=int, default=20)
     p.set_defaults(fn=cmd_study_list)
+    p = common(verbs.add_parser("delete", help="delete a study with every point job (running points cancelled)"))
+    p.add_argument("id")
+    p.set_defaults(fn=cmd_study_delete)
