@@ -103,6 +103,7 @@ const Console = (() => {
     const limit = 20;
     let offset = 0;
     const selected = new Set();
+    const headlines = new Map();
     const form = $("#filters");
     async function render() {
       const q = new URLSearchParams({ limit, offset });
@@ -115,16 +116,27 @@ const Console = (() => {
         const tr = document.createElement("tr");
         tr.dataset.id = job.id;
         tr.innerHTML = `<td><input type="checkbox" class="pick"></td><td><a href="/jobs/${job.id}"><code>${job.id.slice(0, 8)}</code></a></td>
-          <td>${job.kind}</td><td class="label"></td><td class="status status-${job.status}">${job.status}</td>
+          <td>${job.kind}</td><td class="preset"></td><td class="label"></td><td class="status status-${job.status}">${job.status}</td>
           <td><div class="progress"><div class="bar"></div></div></td>
-          <td class="message"></td><td>${new Date(job.created_at).toLocaleString()}</td>`;
+          <td class="headline"></td><td class="message"></td><td>${new Date(job.created_at).toLocaleString()}</td>`;
         tr.querySelector(".bar").style.width = pct(job.progress);  // CSSOM: the CSP allows no style attribute
+        text(tr.querySelector(".preset"), job.preset);
         text(tr.querySelector(".label"), job.label);
         text(tr.querySelector(".message"), job.message);
+        text(tr.querySelector(".headline"), headlines.get(job.id));
         const box = tr.querySelector(".pick");
         box.checked = selected.has(job.id);
         box.onchange = () => (box.checked ? selected.add(job.id) : selected.delete(job.id));
         body.appendChild(tr);
+      }
+      // the first headline of each succeeded job (a succeeded result never changes: fetched once per job)
+      const missing = page.items.filter((j) => j.status === "succeeded" && !headlines.has(j.id)).map((j) => j.id);
+      if (missing.length) {
+        try {
+          const got = await getJSON("/console/headlines?ids=" + missing.join(","));
+          for (const id of missing) headlines.set(id, got[id] || "");
+          for (const tr of body.children) text(tr.querySelector(".headline"), headlines.get(tr.dataset.id));
+        } catch (e) { /* the column stays empty */ }
       }
       text($("#page-info"), `${page.total ? offset + 1 : 0}-${offset + page.items.length} of ${page.total}`);
       $("#prev").disabled = offset === 0;
