@@ -45,6 +45,25 @@ def _at(path: str) -> Callable[[dict], dict | None]:
     return pick
 
 
+def _phases(r: dict) -> dict[str, list] | None:
+    """Several ``ocp`` phases: their trajectories one after the other, a ``phase`` column first (a
+    quantity a phase does not have is empty there)."""
+    phases = [p for p in r.get("phases") or [] if isinstance(p, dict) and _columns(p.get("trajectory"))]
+    if not phases:
+        return _at("trajectory")(r)
+    names: list[str] = []
+    for p in phases:
+        names += [n for n in _columns(p["trajectory"]) if n not in names]
+    cols: dict[str, list] = {"phase": [], **{n: [] for n in names}}
+    for p in phases:
+        tr = _columns(p["trajectory"])
+        n = len(tr["t"])
+        cols["phase"] += [p["name"]] * n
+        for k in names:
+            cols[k] += tr.get(k) or [None] * n
+    return cols
+
+
 TABLES: dict[str, dict[str, Callable[[dict], dict | None]]] = {
     "reentry": {"trajectory": _at("trajectory"), "verification": _at("verification.trajectory")},
     "robust_reentry": {"trajectory": _at("trajectory"), "deterministic": _at("deterministic.trajectory"),
@@ -52,7 +71,7 @@ TABLES: dict[str, dict[str, Callable[[dict], dict | None]]] = {
     "midcourse": {"pareto_front": _front},
     "intercept": {"scan": _at("impulsive.scan"), "finite_thrust": _at("finite_thrust.trajectory"),
                   "porkchop": _porkchop},
-    "ocp": {"trajectory": _at("trajectory"), "verification": _at("verification.trajectory")},
+    "ocp": {"trajectory": _phases, "verification": _at("verification.trajectory")},
 }
 
 

@@ -61,7 +61,8 @@ def test_every_plot_renders_and_the_report_holds_them(solved, name):
         return
     names = [p.name for p in _check_all(kind, params, outcome.result)]
     if kind == "ocp":  # every state, control and expression against time, then the pairs asked for
-        quantities = [n for n in outcome.result["trajectory"] if n != "t"]
+        trajectories = [p["trajectory"] for p in outcome.result.get("phases") or [outcome.result]]
+        quantities = {n for tr in trajectories for n in tr if n != "t"}
         expected = {f"t-{n}" for n in quantities} | {f"{x}-{y}" for x, y in params["plots"]}
     else:
         expected = {"reentry": {"altitude_speed", "ground_track", "controls", "heating"},
@@ -92,6 +93,11 @@ def test_csv_tables_round_trip_the_json_numbers(solved, name):
     for table, cols in tables.items():
         rows = list(csv.reader(io.StringIO(to_csv(cols))))
         assert rows[0] == list(cols)
+        if kind == "ocp" and outcome.result.get("phases"):  # several phases stacked, a phase column first
+            names = {n for p in outcome.result["phases"] for n in p["trajectory"]}
+            assert rows[0][:2] == ["phase", "t"] and set(rows[0][1:]) <= names, rows[0]
+            assert {r[0] for r in rows[1:]} == {p["name"] for p in outcome.result["phases"]}
+            continue
         if kind == "ocp":  # the problem's own names: t and what it declared (units its own, in result.units)
             assert rows[0][0] == "t" and set(rows[0]) <= set(outcome.result["trajectory"]), rows[0]
         else:

@@ -19,6 +19,7 @@ from app.kinds.base import (
     outcome_from_status,
 )
 from app.kinds.ocp.params import OcpParams
+from app.kinds.ocp.phase_kind import check_warm_start, phases_cost
 from app.kinds.ocp.headlines import headlines
 from app.kinds.ocp.plots import plots
 from app.kinds.ocp.result import OcpResult, build_result
@@ -49,6 +50,8 @@ def _warm_start(ctx: JobContext, job_id: str) -> dict:
     except LookupError as exc:
         raise JobFailure("invalid_input", f"{WARM_START_FIELD}: {exc}") from None
     tr = stored.get("trajectory") if isinstance(stored, dict) else None
+    if isinstance(stored, dict) and stored.get("phases"):
+        return stored            # several phases: app.kinds.ocp.phase_kind.check_warm_start
     if not (isinstance(tr, dict) and isinstance(tr.get("t"), list) and len(tr["t"]) >= 2):
         raise JobFailure("invalid_input", f"{WARM_START_FIELD}: job {job_id} has no ocp trajectory to start from")
     return stored
@@ -61,6 +64,8 @@ def run(params: OcpParams, ctx: JobContext) -> RunOutcome:
     problem = params.problem
     from_job = params.guess.from_job
     guess = _warm_start(ctx, from_job) if from_job else None
+    if guess is not None:
+        check_warm_start(guess, problem, job_id=from_job, field=WARM_START_FIELD)
     try:
         sol = solver.solve(problem, initial_guess=guess, on_progress=ctx.progress, should_stop=ctx.should_stop)
     except (KeyError, TypeError, ValueError) as exc:
@@ -114,6 +119,8 @@ def _text_size(params: dict) -> int:
 def cost(params: dict) -> float:
     """Work units: intervals x steps per interval x (states + controls) x expression size, scaled to the
     reference above; times the refinement rounds when ``accuracy`` asks for mesh refinement."""
+    if params.get("phases"):
+        return phases_cost(params, cost)
     tr = params.get("transcription") or {}
     steps = float(tr.get("substeps", 2)) if tr.get("method", "multiple_shooting") == "multiple_shooting" \
         else float(tr.get("nodes", 4)) - 1.0

@@ -71,7 +71,11 @@ def _has(*names: str):
 
 
 def plots(result: dict) -> list[PlotDef]:
-    """One plot per quantity against time, then the pairs of ``result["plots"]``."""
+    """One plot per quantity against time, then the pairs of ``result["plots"]``; several phases:
+    :func:`app.kinds.ocp.phase_plots.phase_plots`."""
+    if result.get("phases"):
+        from app.kinds.ocp.phase_plots import phase_plots
+        return phase_plots(result)
     tr = result.get("trajectory") or {}
     if not isinstance(tr, dict) or "t" not in tr:
         return []
