@@ -14,6 +14,7 @@ from app.runtime import logs
 from app.service import metrics
 from app.service.broker import celery_config
 from app.runtime.settings import Settings, get_settings
+from worker import guard
 
 
 def create_celery(settings: Settings | None = None) -> Celery:
@@ -24,8 +25,19 @@ def create_celery(settings: Settings | None = None) -> Celery:
         # Jobs run in prefork children; recycle them now and then to bound memory
         # growth of long-lived numerical processes (CasADi caches, heyoka JIT).
         worker_max_tasks_per_child=200,
+        # ...and at once when a job left more than TRAJLAB_WORKER_RECYCLE_MB behind (KiB; Celery reads the
+        # peak, which _after_task resets to what is held now): what earlier jobs leave is not charged to
+        # the next one (worker.guard), so this bounds what a process holds besides its current job.
+        worker_max_memory_per_child=(settings.worker_recycle_mb or 0) * 1024 or None,
     )
     return app
+
+
+@signals.task_postrun.connect
+def _after_task(**_) -> None:
+    # in the pool process, before Celery compares its memory with worker_max_memory_per_child
+    guard.release_free_memory()
+    guard.reset_peak()
 
 
 celery_app = create_celery()

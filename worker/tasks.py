@@ -31,6 +31,7 @@ from app.runtime.settings import Settings, get_settings
 from worker import fanout
 from worker.celery_app import celery_app
 from worker.context import WorkerJobContext
+from worker.guard import MB, JobGuard
 
 log = logging.getLogger("trajlab.worker")
 
@@ -61,10 +62,18 @@ def execute_job(db: Database, settings: Settings, job_id: str, attempt: int, *, 
     log.info("job %s attempt %d started (request %s)", job_id, claim.attempt, claim.request_id)
     spec = KINDS[claim.kind]
     ctx = WorkerJobContext(db, claim, settings=settings, celery=celery_app)
-    with ctx:
+    guard = JobGuard(job_id=job_id, cap_bytes=settings.job_memory_mb * MB if settings.job_memory_mb else None,
+                     deadline=ctx.deadline, grace_s=settings.hard_time_limit_margin_s / 2,
+                     time_limit_message=_time_limit_error(settings, claim.kind, native=True)["message"],
+                     on_breach=lambda error: _give_up(db, settings, job_id, claim.attempt, error))
+    with ctx, guard:
         try:
             params = spec.params_model.model_validate(claim.params)
             outcome = spec.run(params, ctx)
+        except MemoryError:  # a malloc refused by the guard's RLIMIT_DATA backstop
+            outcome = RunOutcome("failed", error={"code": "resource_limit", "message": (
+                f"the job ran out of memory at {guard.peak_bytes / MB:.0f} MB or more (cap "
+                f"{settings.job_memory_mb} MB per job, TRAJLAB_JOB_MEMORY_MB)")})
         except JobFailure as exc:
             outcome = RunOutcome("failed", error={"code": exc.code, "message": exc.message, "details": exc.details})
         except JobCancelled:
@@ -88,7 +97,8 @@ def execute_job(db: Database, settings: Settings, job_id: str, attempt: int, *, 
             log.warning("job %s attempt %d refused: its %s result was not stored (the job was taken over by "
                         "another attempt, or finished or cancelled meanwhile)", job_id, claim.attempt, outcome.status)
         return REFUSED
-    log.info("job %s attempt %d stored: %s", job_id, claim.attempt, outcome.status)
+    log.info("job %s attempt %d stored: %s (peak memory %.0f MB)", job_id, claim.attempt, outcome.status,
+             guard.peak_bytes / MB)
     metrics.record_job(metrics.client(settings.broker_url), kind=claim.kind, duration_s=time.monotonic() - started,
                        queue_wait_s=claim.queue_wait_s, iterations=metrics.solver_iterations(outcome.result))
     for nxt in studies.on_point_finished(db, job_id):  # a study's next point (or a retry)
@@ -122,10 +132,21 @@ def _store(db: Database, settings: Settings, job_id: str, attempt: int, outcome:
             delay = min(2 * delay, 5.0)
 
 
-def _time_limit_error(settings: Settings, kind: str) -> dict:
+def _time_limit_error(settings: Settings, kind: str, *, native: bool = False) -> dict:
+    how = (f"; it did not stop within {settings.hard_time_limit_margin_s / 2:.0f} s (inside a native call), so "
+           "its worker process was ended") if native else ""
     return {"code": "time_limit",
             "message": f"the {kind} job ran past its time limit of {time_limit_s(settings, kind):.0f} s "
-                       f"(TRAJLAB_TIME_LIMIT_{kind.upper()}_S)"}
+                       f"(TRAJLAB_TIME_LIMIT_{kind.upper()}_S){how}"}
+
+
+def _give_up(db: Database, settings: Settings, job_id: str, attempt: int, error: dict) -> None:
+    """Store the failure of a job its guard ends (worker.guard: the process exits right after), and move
+    its study on.  One try: a job past its memory cap must not hold the process while the database
+    is away (the reaper takes the job over then)."""
+    if jobs.finish(db, job_id, attempt, status="failed", result=None, error=error, message=error["message"][:2000]):
+        for nxt in studies.on_point_finished(db, job_id):
+            publish_or_defer(db, celery_app, settings, nxt)
 
 
 @celery_app.task(name="trajlab.run_job", bind=True, max_retries=None)

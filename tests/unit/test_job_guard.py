@@ -1,0 +1,100 @@
+"""worker.guard on its own: a process past its memory cap, or stuck in a native call past its time
+limit, stores the failure and ends; what an earlier job left is not charged; RLIMIT_DATA backs the
+sampling up.  Each breach runs in a child process of its own (the guard ends the process it
+watches).  The worker around it: tests/integration/test_job_limits.py."""
+from __future__ import annotations
+
+import json
+import os
+import re
+import signal
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from worker import guard
+from worker.guard import MB, JobGuard
+
+ROOT = Path(__file__).resolve().parents[2]
+pytestmark = pytest.mark.skipif(guard.resident_bytes() is None, reason="needs Linux /proc")
+
+
+def _child(code: str, out: Path) -> subprocess.CompletedProcess:
+    head = textwrap.dedent(f"""
+        import json, time
+        import numpy as np
+        from worker.guard import MB, JobGuard, resident_bytes
+        def store(error):
+            open({str(out)!r}, "w").write(json.dumps(error))
+    """)
+    return subprocess.run([sys.executable, "-c", head + textwrap.dedent(code)], cwd=ROOT, capture_output=True,
+                          text=True, timeout=120, check=False, env={**os.environ, "PYTHONPATH": str(ROOT)})
+
+
+def test_a_job_past_its_cap_is_stored_as_resource_limit_and_its_process_ends(tmp_path):
+    out = tmp_path / "error.json"
+    proc = _child("""
+        cap = resident_bytes() + 60 * MB
+        with JobGuard(job_id="j", cap_bytes=cap, deadline=time.monotonic() + 600, grace_s=30,
+                      time_limit_message="", on_breach=store):
+            held = []
+            for _ in range(100):  # 10 MB a step, touched: resident, not only reserved
+                held.append(np.ones(10 * MB // 8))
+                time.sleep(0.02)
+        print("ran to the end")
+    """, out)
+    assert proc.returncode == -signal.SIGKILL, proc.stderr
+    assert "ran to the end" not in proc.stdout
+    error = json.loads(out.read_text())
+    assert error["code"] == "resource_limit"
+    assert "TRAJLAB_JOB_MEMORY_MB" in error["message"]
+    reached, cap = (float(w) for w in re.findall(r"(\d+) MB", error["message"])[:2])
+    assert reached > cap
+
+
+def test_a_native_call_past_the_time_limit_is_ended_by_the_guard(tmp_path):
+    # libc's sleep in ctypes: a native call that never returns to Python while it lasts (the GIL released,
+    # as CasADi and numpy release it), so no Python-level signal handler or callback can stop it
+    out = tmp_path / "error.json"
+    proc = _child("""
+        import ctypes
+        start = time.monotonic()
+        with JobGuard(job_id="j", cap_bytes=None, deadline=start + 0.2, grace_s=0.3,
+                      time_limit_message="past its time limit", on_breach=store):
+            ctypes.CDLL("libc.so.6").sleep(60)
+        print("ran to the end")
+    """, out)
+    assert proc.returncode == -signal.SIGKILL, proc.stderr
+    assert json.loads(out.read_text()) == {"code": "time_limit", "message": "past its time limit"}
+
+
+def test_memory_an_earlier_job_left_is_not_charged_to_the_next():
+    first = JobGuard(job_id="a", cap_bytes=None, deadline=float("inf"), grace_s=0, time_limit_message="",
+                     on_breach=lambda e: None)
+    with first:
+        left = np.ones(80 * MB // 8)  # kept after the job, as a cache would be
+    second = JobGuard(job_id="b", cap_bytes=None, deadline=float("inf"), grace_s=0, time_limit_message="",
+                      on_breach=lambda e: None)
+    with second:
+        own = np.ones(30 * MB // 8)
+        held = second.charged(guard.resident_bytes())
+    assert second.start_bytes >= first.start_bytes + 70 * MB  # the 80 MB are in the process...
+    assert held < second.first_bytes + 50 * MB                # ...and not in the second job's charge
+    assert held > second.first_bytes + 20 * MB                # its own 30 MB are
+    del left, own
+
+
+def test_rlimit_data_backs_the_sampling_up_and_is_restored(tmp_path):
+    import resource
+
+    before = resource.getrlimit(resource.RLIMIT_DATA)
+    g = JobGuard(job_id="j", cap_bytes=50 * MB, deadline=float("inf"), grace_s=0, time_limit_message="",
+                 on_breach=lambda e: pytest.fail(f"sampled breach {e}"))
+    # one allocation far past cap x DATA_BACKSTOP, refused by malloc before any sample could see it
+    with g, pytest.raises(MemoryError):
+        np.empty(int(guard.DATA_BACKSTOP * 50 * MB * 4), dtype=np.uint8)
+    assert resource.getrlimit(resource.RLIMIT_DATA) == before

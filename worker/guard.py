@@ -1,0 +1,177 @@
+"""The guard of a running job: its memory cap (``TRAJLAB_JOB_MEMORY_MB``) and a time limit that
+holds inside native code.
+
+How memory is capped, and why this way:
+
+* What is capped is what the job holds, its resident memory (``/proc/self/statm``), not its address
+  space: numba and LLVM (heyoka) reserve virtual memory they never touch (a reentry preset: VmSize
+  about 600 MB for 130 MB resident), so an ``RLIMIT_AS`` low enough to matter kills healthy jobs.
+* A watchdog thread in the pool process samples it every :data:`SAMPLE_S`.  Not a cgroup v2
+  ``memory.max`` per job: that needs a process per job in a cgroup of its own under a delegated
+  subtree (root, or systemd's ``Delegate=yes``), which an unprivileged container or a cgroup v1 host
+  (this one) does not give, and the kernel's OOM kill in that cgroup leaves no word: the job would be
+  re-run as a lost worker.  The watchdog works on any Linux as any user and says what happened.
+* Past the cap it stores the failure (code ``resource_limit``, naming the cap and the memory reached)
+  and ends the pool process (SIGKILL to itself, after a log line saying why): the job's thread may be inside IPOPT, MUMPS or a numba
+  kernel, where no Python exception reaches it, and would go on allocating.  Celery's pool starts a
+  fresh process; the message it hands back is dropped at the claim (the job is finished), so the job
+  is not retried, and the pool's other processes and their jobs are untouched.
+* ``RLIMIT_DATA`` (data segment plus private writable mappings) is the backstop for what sampling can
+  miss (a burst of allocations between two samples): set per job to :data:`DATA_BACKSTOP` times the cap
+  above the data size at the start, a malloc past it fails and the job fails as ``resource_limit``
+  (``worker.tasks`` maps ``MemoryError``) instead of waking the kernel's OOM killer.
+
+What earlier jobs left in the process (cached CasADi solvers, compiled libraries, freed memory glibc
+keeps) is not charged to the next job: a job is charged what the process holds above its own start,
+plus what the process held at its first job (so the first job in a fresh process is charged that
+process's whole resident memory, as a job run alone would be).  ``worker.celery_app`` replaces a
+process whose leftovers grow past ``TRAJLAB_WORKER_RECYCLE_MB`` after a job, which bounds what a
+charge can miss (a job reusing memory glibc kept from an earlier one) and keeps the caches otherwise.
+
+The guard assumes Celery's prefork pool (one job per process, as every documented way of running a
+worker starts it); under ``--pool solo`` a breach ends the whole worker and its supervisor restarts it.
+
+The same thread enforces the time limit for a job that never returns to Python: Celery's soft limit
+is a signal, which Python handles only between bytecodes, so a long native call holds it off and
+Celery's hard limit would kill the process without a word (the job then looks lost and is re-run).
+At half the hard margin past the soft limit the guard stores ``time_limit`` and ends the process.
+"""
+from __future__ import annotations
+
+import ctypes
+import logging
+import os
+import resource
+import signal
+import sys
+import threading
+import time
+from collections.abc import Callable
+
+log = logging.getLogger("trajlab.worker")
+
+SAMPLE_S = 0.1            # a 10 Hz sample costs about 20 us of CPU each (one read of statm)
+DATA_BACKSTOP = 2.0       # RLIMIT_DATA: this many caps above the data size at the job's start
+MB = 1024 * 1024
+_PAGE = os.sysconf("SC_PAGE_SIZE")
+
+# The resident memory of this process at its first guarded job (a forked pool process starts afresh).
+_first: dict[int, int] = {}
+
+
+def resident_bytes() -> int | None:
+    """Resident memory of this process, or None where ``/proc`` has no statm (not Linux)."""
+    try:
+        with open("/proc/self/statm", "rb") as f:
+            return int(f.read().split()[1]) * _PAGE
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def data_bytes() -> int | None:
+    """``VmData`` (what RLIMIT_DATA counts) of this process, or None."""
+    try:
+        with open("/proc/self/statm", "rb") as f:
+            return int(f.read().split()[5]) * _PAGE
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def release_free_memory() -> None:
+    """Give the heap's free pages back to the kernel (glibc ``malloc_trim``), so that the resident
+    memory after a job is what it left in use, not what glibc keeps for later mallocs."""
+    try:
+        ctypes.CDLL("libc.so.6").malloc_trim(0)
+    except (OSError, AttributeError):
+        pass  # not glibc: nothing to trim
+
+
+def reset_peak() -> None:
+    """Reset the kernel's peak resident size of this process to its current size (``clear_refs`` 5,
+    Linux 4.0+), so that Celery's ``worker_max_memory_per_child`` check, which reads the peak
+    (``ru_maxrss``), compares what a finished job left rather than what it once held."""
+    try:
+        with open("/proc/self/clear_refs", "w") as f:
+            f.write("5")
+    except OSError:
+        pass  # then Celery compares the peak, which recycles more often, never less
+
+
+class JobGuard:
+    """Watch one job in this process: its memory against ``cap_bytes`` (None: no cap) and the clock
+    against ``deadline + grace_s`` (monotonic).  On a breach ``on_breach(error)`` stores the failure,
+    then the process exits.  A context manager around the job's run."""
+
+    def __init__(self, *, job_id: str, cap_bytes: int | None, deadline: float, grace_s: float,
+                 time_limit_message: str, on_breach: Callable[[dict], None]):
+        self.job_id = job_id
+        self.cap_bytes = cap_bytes
+        self.deadline = deadline
+        self.grace_s = grace_s
+        self.time_limit_message = time_limit_message
+        self.on_breach = on_breach
+        self.start_bytes = self.first_bytes = 0
+        self.peak_bytes = 0
+        self._rlimit: tuple[int, int] | None = None
+        self._done = threading.Event()
+        self._thread = threading.Thread(target=self._watch, name=f"guard-{job_id}", daemon=True)
+
+    def charged(self, rss: int) -> int:
+        """The job's memory: what the process holds above the job's start, plus its first job's start."""
+        return max(rss - self.start_bytes, 0) + self.first_bytes
+
+    def _watch(self) -> None:
+        while not self._done.wait(SAMPLE_S):
+            rss = resident_bytes()
+            if rss is not None:
+                held = self.charged(rss)
+                self.peak_bytes = max(self.peak_bytes, held)
+                if self.cap_bytes is not None and held > self.cap_bytes:
+                    self._breach({"code": "resource_limit", "message": (
+                        f"the job reached {held / MB:.0f} MB of memory, past the cap of {self.cap_bytes / MB:.0f} MB "
+                        "per job (TRAJLAB_JOB_MEMORY_MB); a smaller grid or fewer samples fit")})
+            if time.monotonic() > self.deadline + self.grace_s:
+                self._breach({"code": "time_limit", "message": self.time_limit_message})
+
+    def _breach(self, error: dict) -> None:
+        log.error("job %s: %s; its worker process ends now (SIGKILL) and the pool starts a fresh one",
+                  self.job_id, error["message"])
+        try:
+            self.on_breach(error)
+        except Exception:  # exit all the same: the process must not run on past its bounds
+            log.exception("job %s: the %s failure was not stored; the reaper takes the job over",
+                          self.job_id, error["code"])
+        for handler in logging.getLogger().handlers:
+            handler.flush()
+        sys.stdout.flush()
+        sys.stderr.flush()
+        # not a Python exit: the main thread may be inside native code, and nothing of this process
+        # (atexit handlers, the pool's shutdown) may run on past the breach
+        os.kill(os.getpid(), signal.SIGKILL)
+
+    def __enter__(self) -> "JobGuard":
+        self.start_bytes = resident_bytes() or 0
+        self.first_bytes = _first.setdefault(os.getpid(), self.start_bytes)
+        self.peak_bytes = self.first_bytes
+        if self.cap_bytes is not None:
+            self._limit_data()
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self._done.set()
+        self._thread.join(timeout=5)
+        if self._rlimit is not None:
+            resource.setrlimit(resource.RLIMIT_DATA, self._rlimit)
+
+    def _limit_data(self) -> None:
+        data = data_bytes()
+        if data is None:
+            return
+        soft, hard = resource.getrlimit(resource.RLIMIT_DATA)
+        want = int(data + DATA_BACKSTOP * self.cap_bytes)
+        if hard != resource.RLIM_INFINITY:
+            want = min(want, hard)
+        if soft == resource.RLIM_INFINITY or want < soft:
+            resource.setrlimit(resource.RLIMIT_DATA, (want, hard))
+            self._rlimit = (soft, hard)
