@@ -131,8 +131,8 @@ PHASE_PRESETS: dict[str, dict] = {
                        "2500 m/s), its 100 kg structure is dropped (a link: initial(m, stage2) = final(m, stage1) "
                        "- 100 kg), stage 2 burns 200 kg (at most 6 kN, exhaust 3000 m/s), then coasts. Without "
                        "drag full thrust is optimal (the gravity loss g t_burn is least), so the optimum follows "
-                       "in closed form from Tsiolkovsky's equation and its integral (Wiesel, Spaceflight "
-                       "Dynamics, 3rd ed., sec. 7.2): apogee 1166190.27 m at t = 569.671 s, burnouts at 50 s "
+                       "in closed form from Tsiolkovsky's rocket equation integrated once more for the altitude "
+                       "(computed independently in tests/unit/test_ocp_phases.py): apogee 1166190.27 m at t = 569.671 s, burnouts at 50 s "
                        "and 150 s. Tolerance 0.5 m: RK4 on 20 intervals per burn resolves ln(m) to ~1e-8.",
         "optimum": 1166190.27, "tolerance": 0.5, "params": TWO_STAGE},
     "lunar-lander-coast-burn": {
