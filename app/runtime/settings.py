@@ -113,6 +113,8 @@ class Settings(BaseSettings):
         default=None, ge=0, description="A worker process holding more than this after a job is replaced "
                                         "(Celery's worker_max_memory_per_child); unset: half of job_memory_mb")
     max_grid_intervals: int = Field(default=1000, description="reentry/robust_reentry grid.intervals cap")
+    max_grid_refinements: int = Field(default=20, ge=0, description="reentry grid.max_refinements cap "
+                                      "(mesh-refinement rounds when accuracy is set)")
     lambert_max_problems: int = Field(default=100_000, description="POST /v1/lambert problems per request")
     monte_carlo_max_samples: int = Field(default=1_000_000)
     monte_carlo_chunk_samples: int = Field(

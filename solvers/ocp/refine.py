@@ -147,7 +147,10 @@ def solve_refined(problem, *, solve_on_grid, initial_guess, should_stop, **kw):
         return sol
     why = out.stopped or "not reached"
     sol.notes.insert(0, summary + f"; NOT reached ({why}); the answer is round {_round_of(out)}'s")
-    if sol.status.outcome is Outcome.OPTIMAL and problem.accuracy_required:
+    # a final value missed is the accuracy missed (the refinement owns it); a limit not held stays so
+    if sol.status.outcome in (Outcome.OPTIMAL, Outcome.TERMINAL_NOT_HELD) and problem.accuracy_required:
+        if sol.status.outcome is Outcome.TERMINAL_NOT_HELD:
+            sol.notes.append("terminal: " + sol.status.message)
         sol.status.outcome = Outcome.ACCURACY_NOT_REACHED
         sol.status.message = (f"the re-flown states depart from the answer by {_err(best.max_error)} (scaled), "
                               f"more than the accuracy {problem.accuracy:g}, after {len(out.rounds) - 1} "

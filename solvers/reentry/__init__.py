@@ -2,7 +2,8 @@
 
 The public face: :class:`ReentryProblem`, :class:`Terminal`, :class:`ReentrySolution`
 (:mod:`.problem`), :func:`solve` and the transcription's public pieces (:mod:`.solver`), the
-initial guesses (:mod:`.guess`); the limits that hold between nodes are in :mod:`.limits`.
+initial guesses (:mod:`.guess`); the limits that hold between nodes are in :mod:`.limits`; the grid
+refined to an accuracy in :mod:`.refine` (whose ``solve`` is the package's).
 Names are imported on first use (:mod:`solvers.lazy`), so importing the package loads no CasADi.
 """
 from __future__ import annotations
@@ -15,8 +16,9 @@ _EXPORTS = {
     **dict.fromkeys(("OBJECTIVES", "T_SCALE", "HEAT_LOAD_SCALE", "Terminal", "ReentryProblem",
                      "ReentrySolution"), "problem"),
     "TerminalTolerance": "terminal",
-    **dict.fromkeys(("solve", "param_vector", "shooting_problem", "state_bounds", "objective_value",
+    **dict.fromkeys(("param_vector", "shooting_problem", "state_bounds", "objective_value",
                      "path_quantities"), "solver"),
+    "solve": "refine",          # solver.solve, refined to ``accuracy`` when it is set
     **dict.fromkeys(("InitialGuess", "linear_guess", "on_grid", "rhs_numpy", "simulate_constant_controls"),
                     "guess"),
 }
@@ -28,5 +30,6 @@ if TYPE_CHECKING:  # the same names, for readers, type checkers and import-graph
     from solvers.reentry.problem import (HEAT_LOAD_SCALE, OBJECTIVES, T_SCALE, ReentryProblem, ReentrySolution,
                                          Terminal)
     from solvers.reentry.terminal import TerminalTolerance
+    from solvers.reentry.refine import solve
     from solvers.reentry.solver import (objective_value, param_vector, path_quantities, shooting_problem,
-                                        solve, state_bounds)
+                                        state_bounds)

@@ -76,6 +76,12 @@ class ReentryProblem:
     # re-solves with more substeps, else ``terminal_not_held``.  None: report the miss, never fail.
     terminal_tolerance: TerminalTolerance | None = field(default_factory=TerminalTolerance)
     terminal_rounds: int = 3
+    # Mesh refinement (solvers.reentry.refine): the intervals raised until the re-propagated states
+    # agree with the answer to ``accuracy`` (scaled by each state's scale), at most
+    # ``max_refinements`` rounds; short of it ``accuracy_not_reached`` unless not ``accuracy_required``.
+    accuracy: float | None = None
+    accuracy_required: bool = True
+    max_refinements: int = 8
     ipopt: dict = field(default_factory=dict)
 
     def __post_init__(self):

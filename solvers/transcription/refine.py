@@ -206,15 +206,16 @@ def lgl_history(mesh: Mesh, errors) -> dict:
 
 def uniform_count(intervals: int, errors, target: float, *, order: int = RK4_ORDER,
                   max_factor: int = 8, max_intervals: int | None = None) -> int | None:
-    """For a transcription that keeps equal intervals: the interval count that brings the worst
-    interval within its share (``errors`` on ``intervals`` equal intervals), at least doubled;
-    None when every interval already meets it or the cap is reached."""
-    w = np.full(intervals, 1.0 / intervals)
-    r = float(np.max(misses(errors, w, target)))
-    if r <= 1.0:
+    """For a transcription that keeps equal intervals: the interval count whose local errors sum to
+    ``target`` (``errors`` on ``intervals`` equal intervals; refining all by ``F`` leaves
+    ``sum(e) / F^order``), at most ``max_factor`` times more; None when they already do or the
+    cap is reached."""
+    e = np.asarray(errors, float)
+    total = float(np.sum(e)) if np.all(np.isfinite(e)) else math.inf
+    if total <= target:
         return None
-    factor = r ** (1.0 / order) if math.isfinite(r) else max_factor
-    n = int(min(intervals * max_factor, max(2 * intervals, math.ceil(intervals * factor))))
+    factor = (total / target) ** (1.0 / order) if math.isfinite(total) else max_factor
+    n = int(min(intervals * max_factor, max(intervals + 1, math.ceil(intervals * factor))))
     if max_intervals is not None:
         n = min(n, max_intervals)
     return n if n > intervals else None

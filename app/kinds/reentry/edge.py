@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from app.kinds.base import json_float
+from app.kinds.base import json_float, json_value
 from app.kinds.reentry.params import ReentryParams
 from app.kinds.reentry.vehicle import named_atmosphere
 from solvers.models.reentry_state import CONTROLS, STATE_INDEX, STATES, Trajectory
@@ -49,7 +49,9 @@ def to_problem(params: ReentryParams):
                                                 speed_mps=params.terminal_check.speed_mps,
                                                 angle_rad=math.radians(params.terminal_check.angle_deg)),
         terminal_rounds=params.terminal_check.rounds,
-        intervals=params.grid.intervals, control=params.grid.control, substeps=params.grid.substeps)
+        intervals=params.grid.intervals, control=params.grid.control, substeps=params.grid.substeps,
+        accuracy=params.accuracy, accuracy_required=params.accuracy_required,
+        max_refinements=params.grid.max_refinements)
 
 
 def vehicle_of(params: ReentryParams):
@@ -137,7 +139,9 @@ def solver_block(status, stages: list[dict]) -> dict:
             "max_constraint_violation": json_float(status.max_constraint_violation),
             "cached_build": bool(status.details.get("solver_cached", False)),
             "stages": [{k: (json_float(v) if isinstance(v, float) else v) for k, v in s.items()}
-                       for s in stages]}
+                       for s in stages],
+            **{k: json_value(status.details[k]) for k in ("refinement", "accuracy", "accuracy_reached")
+               if k in status.details}}
 
 
 def _dense_trajectory(ver) -> dict:

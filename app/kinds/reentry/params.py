@@ -50,6 +50,8 @@ class ReentryGrid(StrictModel):
         "linear", description="Controls between nodes: continuous piecewise-linear (paper 000) or "
         "piecewise-constant", examples=["linear"])
     substeps: int = Field(2, ge=1, le=16, description="RK4 steps per interval", examples=[2])
+    max_refinements: int = Field(8, ge=0, description="With `accuracy`: rounds of raising the intervals at "
+                                 "most (capped by the service setting max_grid_refinements)", examples=[8])
 
     @field_validator("intervals")
     @classmethod
@@ -57,6 +59,17 @@ class ReentryGrid(StrictModel):
         cap = _max_intervals()
         if v > cap:
             raise ValueError(f"intervals must be <= max_grid_intervals ({cap})")
+        return v
+
+    @field_validator("max_refinements")
+    @classmethod
+    def _cap_rounds(cls, v: int) -> int:
+        from app.runtime.settings import get_settings
+
+        cap = int(get_settings().max_grid_refinements)
+        if v > cap:
+            raise ValueError(f"max_refinements must be <= max_grid_refinements ({cap}; setting "
+                             "TRAJLAB_MAX_GRID_REFINEMENTS)")
         return v
 
 
@@ -187,6 +200,12 @@ class ReentryParams(StrictModel):
                                  "max_downrange (final longitude), max_great_circle_range, "
                                  "min_heat_load (int sqrt(rho) v^3 dt), min_time", examples=["max_crossrange"])
     grid: ReentryGrid = Field(default_factory=ReentryGrid, description="Shooting grid")
+    accuracy: float | None = Field(None, gt=0, lt=1, description="Target relative error of the re-propagated "
+                                   "states (each by its scale): the intervals are raised from grid.intervals "
+                                   "until it is met (mesh refinement); null: the grid as given", examples=[None])
+    accuracy_required: bool = Field(True, description="With `accuracy`: true fails the job as "
+                                    "accuracy_not_reached when the rounds end short of it (the best round "
+                                    "stored); false accepts the best round with a note", examples=[True])
     path: ReentryPathLimits = Field(default_factory=ReentryPathLimits, description="Path limits")
     terminal: ReentryTerminal = Field(default_factory=ReentryTerminal, description="Terminal equalities")
     terminal_check: ReentryTerminalCheck = Field(default_factory=ReentryTerminalCheck, description="How "

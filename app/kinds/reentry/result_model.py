@@ -2,6 +2,8 @@
 result reuses. Conventions: :mod:`app.kinds.result_models`."""
 from __future__ import annotations
 
+from typing import Any
+
 from pydantic import Field
 
 from app.kinds.result_models import Num, ResultModel, Series, series
@@ -64,6 +66,11 @@ class ReentryResultSolver(ResultModel):
     max_constraint_violation: Num = Field(description="Worst constraint violation at the solution (scaled NLP units)")
     cached_build: bool = Field(description="The compiled NLP came from the per-process cache")
     stages: list[ReentryResultSolverStage] = Field(description="One entry per IPOPT solve")
+    refinement: list[dict[str, Any]] | None = Field(
+        None, description="With `accuracy`: each round's intervals, worst scaled state error (max_error), "
+        "objective, iterations and time_s; absent without accuracy")
+    accuracy: Num = Field(None, description="The accuracy the grid was refined to (absent: none asked)")
+    accuracy_reached: bool | None = Field(None, description="The refinement reached `accuracy`")
 
 
 class ReentryResultDenseTrajectory(ResultModel):
