@@ -14,14 +14,17 @@ worker``, ``trajlab serve``) is two Celery workers side by side:
 """
 from __future__ import annotations
 
+import logging
 import signal
 import subprocess
 import sys
 import threading
+import time
 
 from app.runtime.embedded import exit_with_parent
 from app.service.broker import QUEUE_HEAVY, QUEUE_JOBS, QUEUES
 
+log = logging.getLogger("trajlab")
 QUEUE_CHOICES = {"both": QUEUES, "jobs": (QUEUE_JOBS,), "heavy": (QUEUE_HEAVY,)}
 
 
@@ -42,25 +45,52 @@ def worker_pools(settings, *, name: str, queues: str = "both", loglevel: str = "
                                 loglevel=loglevel)}
 
 
-def run_pools(commands: dict[str, list[str]]) -> int:
-    """Run the pools in the foreground until one exits or SIGTERM/SIGINT arrives; then stop every pool (a
-    warm shutdown: SIGTERM, running jobs finish) and return the first exit code, so the process manager
-    (systemd, compose) restarts the worker as a whole.  The pools stay in this process group (a signal
-    to the group, a terminal's Ctrl-C or a kill of the group, reaches them as it would one Celery
-    worker) and die with this process if it is killed alone."""
-    # preexec_fn before any thread of ours starts (PLW1509: unsafe only with threads running)
-    procs = [subprocess.Popen(cmd, preexec_fn=exit_with_parent) for cmd in commands.values()]  # noqa: PLW1509
+def run_pools(commands: dict[str, list[str]], *, backoff_max_s: float = 30.0, healthy_after_s: float = 60.0) -> int:
+    """Run the pools in the foreground until SIGTERM/SIGINT arrives; then stop every pool (a warm
+    shutdown: SIGTERM, running jobs finish) and return 0.
+
+    ``trajlab worker`` supervises its pools, so a worker started by hand (the README's way) survives a
+    pool that dies: one that exits with an error or a signal (an unrecoverable broker error, the OOM
+    killer) is started again after a backoff of 0.5 s doubling up to ``backoff_max_s``, back to 0.5 s once
+    it has run ``healthy_after_s``.  Issue 27: a worker started by hand died of a full Redis and 1,764
+    accepted jobs stayed queued.  A pool that exits 0 on its own (Celery's remote shutdown) stops the
+    worker, with that status.  The pools stay in this process group (a signal to the group, a terminal's
+    Ctrl-C or a kill of the group, reaches them as it would one Celery worker) and die with this process
+    if it is killed alone; systemd or compose restart this process in turn (deploy/systemd,
+    docker-compose.yml)."""
+    def spawn(cmd: list[str]) -> subprocess.Popen:
+        # preexec_fn while no thread of ours runs (PLW1509: unsafe only with threads running)
+        return subprocess.Popen(cmd, preexec_fn=exit_with_parent)  # noqa: PLW1509
+
+    procs: dict[str, subprocess.Popen | None] = {name: spawn(cmd) for name, cmd in commands.items()}
+    started = dict.fromkeys(commands, time.monotonic())
+    backoff = dict.fromkeys(commands, 0.5)
+    restart_at: dict[str, float] = {}
     ended = threading.Event()
     for sig in (signal.SIGTERM, signal.SIGINT):
         signal.signal(sig, lambda *_: ended.set())
-    code = None
-    while code is None:
-        code = next((p.returncode for p in procs if p.poll() is not None), None)
-        if code is None and ended.wait(0.5):
-            code = 0
-    for proc in procs:
-        if proc.poll() is None:
+    while not ended.wait(0.5):
+        now = time.monotonic()
+        for name, proc in procs.items():
+            if proc is None:
+                if now >= restart_at[name]:
+                    procs[name], started[name] = spawn(commands[name]), now
+                continue
+            status = proc.poll()
+            if status is None:
+                continue
+            if status == 0:
+                ended.set()
+                break
+            if now - started[name] >= healthy_after_s:
+                backoff[name] = 0.5
+            log.warning("worker pool %s exited with %s; starting it again in %.1f s", name, status, backoff[name])
+            procs[name], restart_at[name] = None, now + backoff[name]
+            backoff[name] = min(2 * backoff[name], backoff_max_s)
+    for proc in procs.values():
+        if proc is not None and proc.poll() is None:
             proc.send_signal(signal.SIGTERM)
-    for proc in procs:
-        proc.wait()
-    return code
+    for proc in procs.values():
+        if proc is not None:
+            proc.wait()
+    return 0
