@@ -1,5 +1,5 @@
 """``trajlab`` command line: ``serve`` (the embedded all-in-one), ``api``, ``worker``, ``recover``,
-``migrate``, ``keys``, and the HTTP client commands (``submit``, ``jobs``, ``wait``, ...).
+``migrate``, ``keys``, ``purge``, ``backup``, ``restore``, and the HTTP client commands (``submit``, ``jobs``, ``wait``, ...).
 
 ``trajlab serve`` is what ``make run`` starts on a fresh machine with nothing
 installed by hand: it migrates the SQLite database, starts a real Redis server
@@ -213,6 +213,12 @@ def main(argv: list[str] | None = None) -> int:
     from app.cli import keys as cli_keys
 
     cli_keys.add_commands(sub)
+    from app.cli import purge as cli_purge
+
+    cli_purge.add_commands(sub)
+    from app.cli import backup as cli_backup
+
+    cli_backup.add_commands(sub)
     args = parser.parse_args(argv)
     if getattr(args, "run_client", False):
         logging.getLogger("httpx").setLevel(logging.WARNING)  # one line per request is noise in a terminal
