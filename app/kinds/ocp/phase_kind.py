@@ -26,7 +26,7 @@ def check_warm_start(stored: dict, problem, *, job_id: str, field: str) -> None:
                                           f"{names}: the phase names must be the same, in the same order")
     for p in stored.get("phases") or []:
         tr = p.get("trajectory") if isinstance(p, dict) else None
-        if not (isinstance(tr, dict) and isinstance(tr.get("t"), list) and len(tr["t"]) >= 2):
+        if not (isinstance(tr, dict) and hasattr(tr.get("t"), "__len__") and len(tr["t"]) >= 2):
             raise JobFailure("invalid_input", f"{field}: job {job_id}'s phase {p.get('name')} has no trajectory")
 
 
