@@ -3,7 +3,8 @@
 A 422 never echoes more than a few hundred characters of the input (a 10 MB
 label came back as a 10 MB body), and no error body carries an exception's
 text, an address, a path or a trace: a 500 says only "internal error" and a
-request id, and the traceback goes to the log under that id.
+request id, and the traceback goes to the log under that id.  A database that cannot be reached, or
+whose disk is full, is a 503 with Retry-After.
 """
 from __future__ import annotations
 
@@ -14,6 +15,8 @@ import uuid
 from fastapi import Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
+
+from app.runtime.disk import is_disk_full
 
 log = logging.getLogger("trajlab.errors")
 
@@ -77,9 +80,19 @@ async def internal_error_handler(request: Request, exc: Exception) -> JSONRespon
 DATABASE_RETRY_AFTER_S = 5
 
 
+# A full disk needs someone to free space: clients come back later than after an outage's restart.
+DISK_FULL_RETRY_AFTER_S = 15
+
+
 async def database_unavailable_handler(request: Request, exc: Exception) -> JSONResponse:
-    """The database did not answer (outage, restart, pool exhausted): 503 with Retry-After, never a 500.
-    Nothing was stored by the request; the address and the driver's text stay in the log."""
+    """The database did not answer (outage, restart, pool exhausted) or its disk is full: 503 with
+    Retry-After, never a 500.  Nothing was stored by the request (the transaction rolled back); the
+    address and the driver's text stay in the log."""
+    if is_disk_full(exc):
+        log.warning("database disk full on %s %s: %s", request.method, request.url.path, type(exc).__name__)
+        return JSONResponse(status_code=503, headers={"Retry-After": str(DISK_FULL_RETRY_AFTER_S)},
+                            content={"detail": "the database's disk is full; nothing was stored, retry later",
+                                     "message": "the database's disk is full; retry later"})
     log.warning("database unavailable on %s %s: %s", request.method, request.url.path, type(exc).__name__)
     return JSONResponse(status_code=503, headers={"Retry-After": str(DATABASE_RETRY_AFTER_S)},
                         content={"detail": "the database is unavailable; nothing was stored, retry later",

@@ -36,6 +36,9 @@ class Settings(BaseSettings):
         description="Celery broker: redis://host:port/db or redis+socket:///path/redis.socket",
     )
     data_dir: Path = Field(default=DEFAULT_DATA_DIR, description="Embedded mode: SQLite file, Redis socket, logs")
+    min_free_disk_mb: float = Field(
+        default=32.0, ge=0, description="/readyz is 503 when the SQLite database's filesystem or the embedded data "
+                                        "directory has less than this free (app.runtime.disk)")
     worker_concurrency: int = Field(default=1, ge=1, description="Solver processes per worker (heavy and quick jobs)")
     quick_concurrency: int = Field(
         default=1, ge=0, description="Solver processes a worker started for both queues reserves for quick jobs "
