@@ -8,7 +8,7 @@ PORT   ?= $(or $(TRAJLAB_PORT),8000)
 # `make run` prints how long it took to the first /healthz (scripts/first_healthz.py)
 MAKE_STARTED := $(shell date +%s.%N)
 
-.PHONY: run test install install-test bench clean lock
+.PHONY: run test install install-test bench clean lock guide
 
 # Installs follow the lock, uv.lock: every transitive dependency at one version with its hashes, so two
 # installs a month apart are the same.  uv (pinned) installs from it in seconds; uv reads PyPI only
@@ -40,6 +40,11 @@ lock: $(VENV)/.installed
 	$(UV) export --quiet --frozen --no-emit-project --no-header -o requirements/base.txt
 	$(UV) export --quiet --frozen --no-emit-project --no-header --extra test -o requirements/test.txt
 	$(UV) export --quiet --frozen --no-emit-project --no-header --extra bench -o requirements/bench.txt
+
+# The user guide (MkDocs, docs/ + mkdocs.yml) into app/static/guide, which the service serves at /guide.
+# MkDocs comes with the test extra; the suite builds it too (tests/unit/test_docs_site.py, --strict).
+guide: $(VENV)/.installed-test
+	NO_MKDOCS_2_WARNING=1 $(VENV)/bin/mkdocs build --strict --quiet -d app/static/guide
 
 install: $(VENV)/.installed
 install-test: $(VENV)/.installed-test
