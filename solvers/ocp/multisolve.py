@@ -20,10 +20,25 @@ import numpy as np
 from solvers.common import Outcome, ProgressFn, SolveStatus, StopFn
 from solvers.ocp.multiphase import MultiPhaseNLP
 from solvers.ocp.phases_spec import MultiPhaseProblem
-from solvers.ocp.solver import AGREEMENT_TOLERANCE, WARM_IPOPT, Attempt, functions_of, guess_of
+
 # The single phase's packing, re-flight and result of one phase, reused per phase (same package).
-from solvers.ocp.solver import _numbers, _solution, _verify
-from solvers.ocp.terminal import TERMINAL_ROUNDS, TERMINAL_TOLERANCE, finer, grid_words, terminal_checks
+from solvers.ocp.solver import (
+    AGREEMENT_TOLERANCE,
+    WARM_IPOPT,
+    Attempt,
+    _numbers,
+    _solution,
+    _verify,
+    functions_of,
+    guess_of,
+)
+from solvers.ocp.terminal import (
+    TERMINAL_ROUNDS,
+    TERMINAL_TOLERANCE,
+    finer,
+    grid_words,
+    terminal_checks,
+)
 
 
 @dataclass
@@ -175,8 +190,9 @@ def _solve_once(mp: MultiPhaseProblem, initial_guess, on_progress, should_stop, 
 
 def _link_values(mp: MultiPhaseProblem, phases: list[dict], theta) -> dict[str, dict]:
     """Each stated link's value at the solution's nodes, against its bounds (how exactly a jump holds)."""
-    from solvers.ocp.symbolic import to_sx
     import casadi as ca
+
+    from solvers.ocp.symbolic import to_sx
 
     ev = {}
     for p in phases:

@@ -32,7 +32,14 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, replace
 
-from solvers.ocp.expressions import Boundary, EventTime, OcpInputError, Scope, parse_expression, walk
+from solvers.ocp.expressions import (
+    Boundary,
+    EventTime,
+    OcpInputError,
+    Scope,
+    parse_expression,
+    walk,
+)
 from solvers.ocp.fields import (
     OcpLimits,
     constraints_at,
@@ -197,10 +204,10 @@ def _mid(lo, hi):
     return lo if lo is not None else hi
 
 
-def parse_phases(params: dict, limits: OcpLimits = OcpLimits()) -> MultiPhaseProblem:
-    """Validate a multi-phase ``params`` object (module docstring); :class:`OcpInputError` otherwise."""
-    from solvers.ocp.spec import parse_problem
-
+def parse_phases(params: dict, limits: OcpLimits, parse_problem) -> MultiPhaseProblem:
+    """Validate a multi-phase ``params`` object (module docstring); :class:`OcpInputError` otherwise.
+    ``parse_problem``: the single-phase parser (:func:`solvers.ocp.spec.parse_problem`, which calls
+    this one: passed in, so neither module imports the other)."""
     P = "params"
     for k in SINGLE_ONLY:
         if params.get(k) not in (None, [], {}):

@@ -108,7 +108,7 @@ def parse_problem(params: dict, limits: OcpLimits = OcpLimits()) -> OcpProblem:
         raise OcpInputError(P, "expected an object")
     if params.get("phases") is not None:     # several phases: solvers.ocp.phases_spec (which parses each phase here)
         from solvers.ocp.phases_spec import parse_phases
-        return parse_phases(params, limits)
+        return parse_phases(params, limits, parse_problem)
     unknown_fields(params, TOP_FIELDS, P)
     title = params.get("title") or ""
     if not isinstance(title, str) or len(title) > 500:
