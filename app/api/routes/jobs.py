@@ -14,6 +14,7 @@ from app.api.access import PrincipalDep, not_found, visible_job
 from app.api.deps import DatabaseDep
 from app.kinds import KINDS, PRESETS
 from app.api.params import resolve_params
+from app.api.submit_examples import job_examples
 from app.api.warm_start import check_warm_starts
 from app.results.compact import compact
 from app.api.result_body import JobResult, result_json
@@ -48,14 +49,7 @@ def _job_response(body: bytes, *, status_code: int = 200, headers: dict | None =
                         503: {"description": "The database could not be reached (`Retry-After` says when to "
                                               "try again); nothing was stored"}})
 def submit_job(
-    submission: Annotated[JobSubmission, Body(openapi_examples={
-        "preset": {"summary": "Run a paper case", "value": {"kind": "intercept", "preset": "long-range-intercept"}},
-        "override": {"summary": "A preset with overrides",
-                     "value": {"kind": "reentry", "preset": "betts-max-crossrange", "params": {"grid": {"intervals": 50}}}},
-        "ocp": {"summary": "Your own optimal-control problem (docs/tutorials/ocp.md)",
-                "value": {"kind": "ocp", "params": PRESETS["brachistochrone"].params if "brachistochrone" in PRESETS
-                          else {}}},
-    })],
+    submission: Annotated[JobSubmission, Body(openapi_examples=job_examples())],
     request: Request, principal: PrincipalDep,
     idempotency_key: Annotated[str | None, Header(max_length=200, description="Repeat a submission safely: the same key and body return the same job")] = None,
 ):
