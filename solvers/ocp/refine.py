@@ -50,8 +50,15 @@ class Trial:
         self.objective = sol.objective
         self.iterations = sol.status.iterations
         self.intervals = problem.transcription.intervals
-        self.interval_error = sol.interval_errors.get("state")
+        self._local = sol.interval_errors.get("state")
         self.interval_excess = sol.interval_errors.get("path")
+
+    @property
+    def interval_error(self):
+        """The scaled local error per interval, re-flown on first use (an accepted round needs none)."""
+        if callable(self._local):
+            self._local = self._local()
+        return self._local
 
 
 def mesh_of(problem) -> rf.Mesh:

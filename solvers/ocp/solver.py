@@ -27,7 +27,7 @@ from solvers.ocp.terminal import (
     grid_words,
     terminal_checks,
 )
-from solvers.ocp.verify import Verification, verify
+from solvers.ocp.verify import Verification, local_errors, verify
 
 _FUNCTIONS: dict[tuple, PhaseFunctions] = {}
 _FUNCTIONS_LOCK = threading.Lock()
@@ -50,7 +50,8 @@ class OcpSolution:
     verification: dict
     solver: dict
     notes: list[str] = field(default_factory=list)
-    # per interval: "state" the scaled local error, "path" the worst scaled path excess (refinement)
+    # per interval, for refinement: "path" the worst scaled path excess, "state" a function giving the
+    # scaled local errors (solvers.ocp.verify.local_errors: a second re-flight, run when asked)
     interval_errors: dict = field(default_factory=dict)
 
 
@@ -325,8 +326,8 @@ def _solve_on_grid(problem: OcpProblem, *, initial_guess, on_progress, should_st
     sol = _solution(problem, nlp, num, att, ver, status, notes)
     sol.verification.update(agrees=agrees, agreement_tolerance=agreement, terminal=terminal,
                             terminal_held=terminal_held, terminal_tolerance=TERMINAL_TOLERANCE)
-    sol.interval_errors = {"state": ver.interval_error,
-                           "path": np.max(ver.interval_excess, axis=0) if ver.interval_excess else None}
+    sol.interval_errors = {"path": np.max(ver.interval_excess, axis=0) if ver.interval_excess else None,
+                           "state": lambda: _local_errors(problem, nlp, num, att)}    # on demand
     return sol
 
 
@@ -338,8 +339,14 @@ def _verify(problem: OcpProblem, nlp: PhaseNLP, num: Numbers, att: Attempt) -> V
                   theta=att.theta, c=num.p[:nlp.fns.nc], t0=t0, tf=att.tf,
                   state_names=ph.state_names, x_scale=num.x_scale,
                   path_bounds=[(c.lower, c.upper) for c in ph.path],
-                  path_names=[c.name for c in ph.path], path_scale=num.path_scale,
-                  local=problem.accuracy is not None)
+                  path_names=[c.name for c in ph.path], path_scale=num.path_scale)
+
+
+def _local_errors(problem: OcpProblem, nlp: PhaseNLP, num: Numbers, att: Attempt) -> np.ndarray:
+    t0 = problem.phase.time.initial
+    return local_errors(fns=nlp.fns, grid=nlp.grid, t_nodes=t0 + (att.tf - t0) * nlp.grid.tau(), X=att.X,
+                        U=nlp.node_controls(att.U), theta=att.theta, c=num.p[:nlp.fns.nc], t0=t0, tf=att.tf,
+                        x_scale=num.x_scale)
 
 
 def _solution(problem, nlp, num, att, ver, status, notes) -> OcpSolution:

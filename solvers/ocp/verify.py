@@ -35,7 +35,6 @@ class Verification:
     max_scaled_difference: dict[str, float]
     path: dict[str, dict] = field(default_factory=dict)
     interval_excess: list[np.ndarray] = field(default_factory=list)   # per path constraint, (m,)
-    interval_error: np.ndarray | None = None     # (m,) scaled local error per interval (local=True)
     limits_held: bool = True
     ok: bool = True
     message: str = ""
@@ -111,12 +110,48 @@ def interval_bounds(grid, t_nodes: np.ndarray) -> np.ndarray:
     return t_nodes[grid.offsets()]
 
 
+def _interval_rhs(grid, U, uf, rhs, k, ta, tb):
+    """``f(t, x)`` on interval ``k``: the controls as the transcription defines them there."""
+    ua, ub = U[:, k], U[:, k + 1]
+    if grid.method == "multiple_shooting" and grid.control == "linear":
+        def f(t, x, ta=ta, ua=ua, du=(ub - ua) / (tb - ta)):
+            return rhs(t, x, ua + (t - ta) * du)
+    elif grid.method == "multiple_shooting":
+        def f(t, x, ua=ua):
+            return rhs(t, x, ua)
+    else:
+        def f(t, x, k=k):
+            return rhs(t, x, uf(t, k)[:, 0])
+    return f
+
+
+def local_errors(*, fns, grid, t_nodes, X, U, theta, c, t0, tf, x_scale) -> np.ndarray:
+    """Per interval, the worst scaled difference between its nodes and the interval re-flown from its
+    own first node (DOP853 as :func:`verify`): what that interval's discretization adds, the error
+    model of mesh refinement (:mod:`solvers.transcription.refine`); NaN where the flight fails."""
+    U = np.asarray(U, float)
+    uf = control_function(grid, t_nodes, U)
+    ends, off = interval_bounds(grid, t_nodes), grid.offsets()
+    rhs = _fast_rhs(fns, (np.asarray(theta, float), np.asarray(c, float), t0, tf))
+    scale = np.asarray(x_scale, float)
+    out = np.full(grid.intervals, np.nan)
+    for k in range(grid.intervals):
+        nodes_k = t_nodes[off[k] + 1:off[k + 1] + 1]
+        f = _interval_rhs(grid, U, uf, rhs, k, ends[k], ends[k + 1])
+        try:
+            loc = solve_ivp(f, (ends[k], ends[k + 1]), X[:, off[k]], method="DOP853", rtol=1e-10,
+                            atol=1e-10 * scale, t_eval=nodes_k)
+        except (ValueError, ArithmeticError, RuntimeError):
+            continue
+        if loc.success and loc.y.shape[1] == len(nodes_k):
+            out[k] = float((np.abs(loc.y - X[:, off[k] + 1:off[k + 1] + 1]) / scale[:, None]).max())
+    return out
+
+
 def verify(*, fns, grid, t_nodes, X, U, theta, c, t0, tf, state_names, x_scale,
-           path_bounds, path_names, path_scale, local: bool = False) -> Verification:
+           path_bounds, path_names, path_scale) -> Verification:
     """Re-fly ``U`` from ``X[:, 0]`` (module docstring).  ``path_bounds``: (lower, upper) per path
-    constraint (None for a side without a bound).  ``local``: also re-fly each interval from its
-    own first node (``interval_error``: what that interval's discretization adds, the error
-    model of mesh refinement, :mod:`solvers.transcription.refine`)."""
+    constraint (None for a side without a bound)."""
     uf = control_function(grid, t_nodes, np.asarray(U, float))
     ends = interval_bounds(grid, t_nodes)
     m = grid.intervals
@@ -127,24 +162,13 @@ def verify(*, fns, grid, t_nodes, X, U, theta, c, t0, tf, state_names, x_scale,
     y = np.asarray(X[:, 0], float).copy()
     off = grid.offsets()
     scale = np.asarray(x_scale, float)
-    local_err = np.full(m, np.nan) if local else None
     for k in range(m):
         ta, tb = ends[k], ends[k + 1]
         nodes_k = t_nodes[off[k] + 1:off[k + 1] + 1]
         dense = np.linspace(ta, tb, SAMPLES_PER_INTERVAL + 1)[:-1]
         t_eval = np.unique(np.concatenate([dense, nodes_k]))
 
-        ua, ub = U[:, k], U[:, k + 1]
-
-        if grid.method == "multiple_shooting" and grid.control == "linear":
-            def f(t, x, ta=ta, ua=ua, du=(ub - ua) / (tb - ta)):
-                return rhs(t, x, ua + (t - ta) * du)
-        elif grid.method == "multiple_shooting":
-            def f(t, x, ua=ua):
-                return rhs(t, x, ua)
-        else:
-            def f(t, x, k=k):
-                return rhs(t, x, uf(t, k)[:, 0])
+        f = _interval_rhs(grid, U, uf, rhs, k, ta, tb)
         try:
             sol = solve_ivp(f, (ta, tb), y, method="DOP853", rtol=1e-10, atol=atol, t_eval=t_eval)
         except (ValueError, ArithmeticError, RuntimeError) as e:   # NaN/overflow in the user's dynamics
@@ -159,15 +183,6 @@ def verify(*, fns, grid, t_nodes, X, U, theta, c, t0, tf, state_names, x_scale,
         us_.append(uf(t_eval[keep], k))
         node_x += [sol.y[:, np.searchsorted(t_eval, tn)] for tn in nodes_k]
         y = sol.y[:, -1].copy()
-        if local:
-            try:
-                loc = solve_ivp(f, (ta, tb), X[:, off[k]], method="DOP853", rtol=1e-10, atol=atol,
-                                t_eval=nodes_k)
-                if loc.success and loc.y.shape[1] == len(nodes_k):
-                    d = np.abs(loc.y - X[:, off[k] + 1:off[k + 1] + 1]) / scale[:, None]
-                    local_err[k] = float(d.max())
-            except (ValueError, ArithmeticError, RuntimeError):
-                pass          # stays NaN: the interval counts as missing its share
     ts.append(np.array([t_nodes[-1]]))
     xs_.append(y[:, None])
     us_.append(uf(np.array([t_nodes[-1]]), m - 1))
@@ -179,8 +194,7 @@ def verify(*, fns, grid, t_nodes, X, U, theta, c, t0, tf, state_names, x_scale,
     diff = np.abs(np.column_stack(node_x) - X)
     abs_d = {s: float(diff[i].max()) for i, s in enumerate(state_names)}
     scaled = {s: float(diff[i].max() / scale[i]) for i, s in enumerate(state_names)}
-    ver = Verification(t=t_d, x=x_d, u=u_d, max_abs_difference=abs_d, max_scaled_difference=scaled,
-                       interval_error=local_err)
+    ver = Verification(t=t_d, x=x_d, u=u_d, max_abs_difference=abs_d, max_scaled_difference=scaled)
     if fns.npath:
         vals = np.asarray(fns.path.map(t_d.size)(t_d[None, :], x_d, u_d, args[0], args[1], t0, tf))
         interval = np.minimum(np.searchsorted(ends, t_d, side="right") - 1, m - 1)

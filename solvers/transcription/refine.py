@@ -119,19 +119,30 @@ def equidistributed_error(errors, target: float, *, order: int = RK4_ORDER) -> f
 
 
 def split_counts(errors, widths, target: float, *, order: int = RK4_ORDER, max_split: int = 8) -> np.ndarray:
-    """Parts each interval is split into so the local errors sum to ``target`` (multiple shooting,
-    method of ``order``): 1 where the error is within :func:`equidistributed_error`, else
-    ``(e / delta)^(1/(order+1))`` rounded up, between 2 and ``max_split``.  ``widths`` is unused
-    (the local error already carries the interval's length) and kept for symmetry with LGL."""
+    """Parts each interval is split into so that the local errors sum to at most ``target`` with the
+    fewest intervals (multiple shooting, a method of ``order``: an interval cut in ``n`` keeps
+    ``e / n^order``): one part at a time goes to the interval whose error it lowers most (greedy,
+    optimal for this convex separable allocation, and it lands on :func:`equidistributed_error`'s
+    ``n ~ e^(1/(order+1))``), at most ``max_split`` parts; an unknown error gets ``max_split``.
+    ``widths`` is unused (the local error already carries the interval's length)."""
+    import heapq
+
     del widths
     e = np.asarray(errors, float)
-    delta = equidistributed_error(e, target, order=order)
     n = np.ones(e.size, int)
-    r = np.where(np.isfinite(e), e / delta, np.inf)
-    bad = r > 1.0
-    with np.errstate(over="ignore", invalid="ignore"):
-        want = np.where(np.isfinite(r), np.ceil(np.power(np.where(bad, r, 1.0), 1.0 / (order + 1.0))), max_split)
-    n[bad] = np.clip(want[bad], 2, max_split).astype(int)
+    n[~np.isfinite(e)] = max_split
+    finite = np.where(np.isfinite(e), e, 0.0)
+    total = float(np.sum(finite))
+    delta = equidistributed_error(e, target, order=order)      # an interval below it is fine as it is
+    gain = [(-(v - v / 2.0 ** order), k) for k, v in enumerate(finite) if v > delta and n[k] < max_split]
+    heapq.heapify(gain)
+    while total > target and gain:
+        g, k = heapq.heappop(gain)
+        total += g
+        n[k] += 1
+        if n[k] < max_split:
+            nxt = finite[k] / n[k] ** order - finite[k] / (n[k] + 1.0) ** order
+            heapq.heappush(gain, (-nxt, k))
     return n
 
 
