@@ -25,6 +25,10 @@ best of ``--reps``; this machine's 2 shared cores make single runs noisy.
 * **reentry kind** (betts-shuttle-ocp only): the ``reentry`` kind's own solve of the same problem
   against the ocp kind's whole solve (both with their verification; target within 2x).
 
+* **refinement** (``--no-refinement`` to leave it out; :mod:`benchmarks.ocp_refine`): the
+  brachistochrone and the Betts shuttle refined to 1e-6 from a coarse grid against the smallest
+  uniform grid that reaches 1e-6: rounds, intervals, error, iterations, time.
+
 * **Dymos** 1.15.1 (``--dymos gl,radau``, off by default: on this machine Radau takes minutes on
   Goddard): Gauss-Lobatto and Radau on the same number of segments, IPOPT through cyipopt in
   place of SLSQP (``benchmarks.ocp_dymos``; pyOptSparse has no wheel here; cyipopt builds against
@@ -326,6 +330,8 @@ def main() -> int:
     ap.add_argument("--reps", type=int, default=3)
     ap.add_argument("--skip-rockit", action="store_true")
     ap.add_argument("--dymos", default="", help="Dymos transcriptions to run: gl, radau or gl,radau")
+    ap.add_argument("--no-refinement", dest="refinement", action="store_false",
+                    help="leave out the mesh-refinement row (benchmarks.ocp_refine)")
     ap.add_argument("--no-save", dest="save", action="store_false",
                     help="do not merge the figures into benchmarks/results/latest.json")
     args = ap.parse_args()
@@ -361,6 +367,9 @@ def main() -> int:
                          "rockit": rk, "dymos": dymos, "ratio_vs_faster_hand_written": ours_bs / faster}
         if name == "betts-shuttle-ocp":
             figures[name]["reentry_kind"] = reentry_kind_ratio(ours, args.reps)
+    if args.refinement:
+        from benchmarks.ocp_refine import refinement_rows
+        figures["refinement"] = refinement_rows(reps=args.reps)
     if args.save:
         from benchmarks.results import write_results
         write_results("ocp", figures)

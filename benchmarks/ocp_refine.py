@@ -1,0 +1,104 @@
+"""Mesh refinement against uniform grids (issue 26 item 5): the row ``benchmarks.ocp`` prints last.
+
+For each problem and the accuracy 1e-6 (the re-flown states within 1e-6 of each state's scale):
+
+* **refined**: :func:`solvers.ocp.solve` with ``accuracy`` from a coarse grid (``START``), cold
+  (solver cache and symbolic functions cleared), every round counted: build, IPOPT, the DOP853
+  re-flight and, for rounds not accepted, the per-interval re-flight of the error estimate;
+* **uniform**: the smallest number of equal intervals whose answer re-flies within the accuracy
+  (doubling from the refined start, then bisection; each probe a plain solve without ``accuracy``),
+  then that grid solved cold as a user who knew it would, build + IPOPT + its re-flight.
+
+The refined solve must reach the accuracy with fewer intervals and in less time.  Times are best of
+``reps``; this machine's 2 shared cores make single runs noisy (the load average is printed).
+"""
+from __future__ import annotations
+
+import copy
+import os
+import time
+
+from solvers.ocp import PRESETS, parse_problem, solve
+from solvers.ocp.solver import reset_caches
+from solvers.transcription.nlp import clear_cache
+
+ACCURACY = 1e-6
+START = {"brachistochrone": 4, "betts-shuttle-ocp": 50}
+
+
+def _params(name: str, intervals: int, accuracy: float | None) -> dict:
+    params = copy.deepcopy(PRESETS[name]["params"])
+    params["transcription"]["intervals"] = intervals
+    if accuracy is not None:
+        params["accuracy"] = accuracy
+    return params
+
+
+def _cold(name: str, intervals: int, accuracy: float | None):
+    reset_caches()
+    clear_cache()
+    t = time.perf_counter()
+    sol = solve(parse_problem(_params(name, intervals, accuracy)))
+    return sol, time.perf_counter() - t
+
+
+def _error(sol) -> float:
+    return float(sol.verification["max_state_difference_scaled_overall"])
+
+
+def smallest_uniform(name: str, start: int, accuracy: float, *, cap: int = 1000) -> tuple[int, int]:
+    """``(N, probes)``: the fewest equal intervals whose re-flight is within ``accuracy``."""
+    probes = 0
+
+    def ok(n: int) -> bool:
+        nonlocal probes
+        probes += 1
+        sol = solve(parse_problem(_params(name, n, None)))
+        return sol.status.ok and _error(sol) <= accuracy
+
+    lo, hi = start, start
+    while not ok(hi):
+        lo, hi = hi, min(2 * hi, cap)
+        if hi == lo:
+            return cap, probes
+    if hi == start:
+        return start, probes
+    while hi - lo > 1:                  # ok(hi), not ok(lo)
+        mid = (lo + hi) // 2
+        lo, hi = (lo, mid) if ok(mid) else (mid, hi)
+    return hi, probes
+
+
+def refinement_rows(names=tuple(START), reps: int = 1) -> dict:
+    print(f"\nmesh refinement to {ACCURACY:g} (re-flown states, scaled) against the smallest uniform grid "
+          f"that reaches it; load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+    print(f"{'problem':<19}{'form':<9}{'rounds':>7}{'intervals':>10}{'error':>10}{'iter':>6}{'time s':>8}"
+          f"{'objective':>14}  mesh")
+    figures = {}
+    for name in names:
+        runs = [_cold(name, START[name], ACCURACY) for _ in range(reps)]
+        sol, t_ref = min(runs, key=lambda r: r[1])
+        rounds = sol.solver["refinement"]
+        n_uni, probes = smallest_uniform(name, START[name], ACCURACY)
+        uni = [_cold(name, n_uni, None) for _ in range(reps)]
+        usol, t_uni = min(uni, key=lambda r: r[1])
+        path = " -> ".join(str(r["intervals"]) for r in rounds)
+        print(f"{name:<19}{'refined':<9}{len(rounds) - 1:>7}{sol.solver['intervals']:>10}{_error(sol):>10.2e}"
+              f"{sol.solver['iterations']:>6}{t_ref:>8.2f}{sol.objective:>14.8g}  {path}")
+        print(f"{'':<19}{'uniform':<9}{'':>7}{n_uni:>10}{_error(usol):>10.2e}{usol.solver['iterations']:>6}"
+              f"{t_uni:>8.2f}{usol.objective:>14.8g}  smallest of {probes} probes")
+        fewer, faster = sol.solver["intervals"] < n_uni, t_ref < t_uni
+        print(f"{'':<19}target: fewer intervals {'met' if fewer else 'MISSED'}, less time "
+              f"{'met' if faster else 'MISSED'} ({t_ref / t_uni:.2f}x)")
+        figures[name] = {"accuracy": ACCURACY, "start_intervals": START[name],
+                         "refined": {"rounds": rounds, "intervals": sol.solver["intervals"], "error": _error(sol),
+                                     "iterations": sol.solver["iterations"], "time_s": t_ref,
+                                     "objective": sol.objective, "reached": sol.solver.get("accuracy_reached")},
+                         "uniform": {"intervals": n_uni, "error": _error(usol), "iterations": usol.solver["iterations"],
+                                     "time_s": t_uni, "objective": usol.objective, "probes": probes},
+                         "fewer_intervals": fewer, "less_time": faster}
+    return figures
+
+
+if __name__ == "__main__":
+    refinement_rows()
