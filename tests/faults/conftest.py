@@ -28,12 +28,12 @@ FINAL = ("succeeded", "failed", "cancelled")
 
 
 class Stack:
-    def __init__(self, pg: PostgresServer, redis: RedisServer, tmp: Path):
+    def __init__(self, pg: PostgresServer, redis: RedisServer, tmp: Path, overrides: dict | None = None):
         self.pg, self.redis, self.tmp = pg, redis, tmp
         overrides = {"TRAJLAB_DATABASE_URL": pg.url, "TRAJLAB_BROKER_URL": redis.url, "TRAJLAB_AUTH": "off",
                      "TRAJLAB_HEARTBEAT_INTERVAL_S": "0.5", "TRAJLAB_STALE_AFTER_S": "15",
                      "TRAJLAB_REAPER_INTERVAL_S": "1", "TRAJLAB_REPUBLISH_AFTER_S": "3",
-                     "TRAJLAB_DB_RETRY_MAX_S": "2"}
+                     "TRAJLAB_DB_RETRY_MAX_S": "2", **(overrides or {})}
         self.env = {**os.environ, **overrides, "PYTHONPATH": str(ROOT)}
         self.settings = Settings(**{k.removeprefix("TRAJLAB_").lower(): v for k, v in overrides.items()})
         upgrade(pg.url)
