@@ -10,7 +10,9 @@ Modules: ``expressions`` (the safe grammar), ``problem`` (the typed dataclasses)
 :class:`MultiPhaseProblem`), ``phase_cases`` (their presets); with CasADi:
 ``multiphase`` (the phases' blocks in one NLP), ``multisolve`` (:func:`solve` of several phases), ``symbolic`` (tree -> SX), ``phase`` (one phase -> a cached NLP, multiple shooting or LGL, with
 block derivatives), ``verify`` (DOP853 re-flight), ``limits`` (limits that hold between the
-nodes), ``terminal`` (final values that hold on the re-flight), ``solver`` (:func:`solve`).
+nodes), ``terminal`` (final values that hold on the re-flight), ``grid`` (where the nodes sit: equal
+intervals or a refined mesh), ``refine`` (the grid refined to ``accuracy``, or on a terminal miss,
+through :mod:`solvers.transcription.refine`), ``solver`` (:func:`solve`).
 """
 from __future__ import annotations
 
