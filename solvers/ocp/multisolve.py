@@ -26,11 +26,11 @@ from solvers.ocp.solver import (
     AGREEMENT_TOLERANCE,
     WARM_IPOPT,
     Attempt,
-    _numbers,
-    _solution,
-    _verify,
     functions_of,
     guess_of,
+    numbers_of,
+    solution_of,
+    verify_attempt,
 )
 from solvers.ocp.terminal import (
     TERMINAL_ROUNDS,
@@ -104,7 +104,7 @@ def _solve_once(mp: MultiPhaseProblem, initial_guess, on_progress, should_stop, 
                                          "parameters": initial_guess.get("parameters")}
         tf_g, th_g, X_g, U_g = guess_of(b.problem, b.nlp.grid, warm)
         t0_g = float(old["t0"]) if old is not None else b.problem.time.initial
-        num = _numbers(b.problem, b.nlp, tf_g)
+        num = numbers_of(b.problem, b.nlp, tf_g)
         ts, t = num.t_scale, ph.time
         lo_t0 = t.initial if t.initial is not None else t.initial_lower
         hi_t0 = t.initial if t.initial is not None else t.initial_upper
@@ -139,11 +139,11 @@ def _solve_once(mp: MultiPhaseProblem, initial_guess, on_progress, should_stop, 
         t0 = float(res.x[b.t0_col] * num.t_scale)
         prob = replace(b.problem, phase=replace(b.problem.phase, time=replace(b.problem.phase.time, initial=t0)))
         att = Attempt(b.nlp, num, SimpleNamespace(x=res.x[b.colmap], status=status, f=float("nan")))
-        ver = _verify(prob, b.nlp, num, att)
+        ver = verify_attempt(prob, b.nlp, num, att)
         fns = b.nlp.fns
         terminal = terminal_checks(problem=prob, fns=fns, x_scale=num.x_scale, c=num.p[:fns.nc], theta=att.theta,
                                    tf=att.tf, x=ver.x, u=ver.u) if ver.ok else {}
-        one = _solution(prob, b.nlp, num, att, ver, status, [])
+        one = solution_of(prob, b.nlp, num, att, ver, status, [])
         worst = max(ver.max_scaled_difference.values(), default=0.0)
         ph_agrees = bool(ver.ok and worst <= AGREEMENT_TOLERANCE)
         held = all(c["held"] for c in terminal.values())

@@ -110,7 +110,7 @@ def _scales(problem: OcpProblem, tf_guess: float):
     return xs, us, ts, ths
 
 
-def _numbers(problem: OcpProblem, nlp: PhaseNLP, tf_guess: float) -> Numbers:
+def numbers_of(problem: OcpProblem, nlp: PhaseNLP, tf_guess: float) -> Numbers:
     ph, g = problem.phase, nlp.grid
     N, Nu = g.n_nodes, g.n_controls
     xs, us, ts, ths = _scales(problem, tf_guess)
@@ -273,20 +273,20 @@ def _solve_on_grid(problem: OcpProblem, *, initial_guess, on_progress, should_st
     nlp = PhaseNLP(problem, fns, ipopt=ipopt)
     grid = nlp.grid
     tf_g, th_g, X_g, U_g = guess_of(problem, grid, initial_guess)
-    num = _numbers(problem, nlp, tf_g)
+    num = numbers_of(problem, nlp, tf_g)
     build_time = time.perf_counter() - t_start
     z0 = np.clip(nlp.pack(tf_g, th_g, X_g, U_g), num.lbz, num.ubz)
     res = nlp.solver.solve(x0=z0, lbx=num.lbz, ubx=num.ubz, lbg=num.lbg, ubg=num.ubg, p=num.p,
                            on_progress=on_progress, should_stop=should_stop, progress_span=(0.02, 0.9))
     att = Attempt(nlp, num, res)
     notes: list[str] = []
-    ver = _verify(problem, nlp, num, att)
+    ver = verify_attempt(problem, nlp, num, att)
     rounds = []
     if att.status.ok and fns.npath and not ver.limits_held and ver.ok:
         progress(0.92, "tightening path limits violated between the nodes")
         warm = PhaseNLP(problem, fns, ipopt={**(ipopt or {}), **WARM_IPOPT})
         att, ver, rounds = hold_path_limits(problem=problem, nlp=warm, num=num, attempt=att, verification=ver,
-                                            verify=lambda a: _verify(problem, nlp, num, a),
+                                            verify=lambda a: verify_attempt(problem, nlp, num, a),
                                             make_attempt=lambda r: Attempt(nlp, num, r),
                                             should_stop=should_stop)
     status = att.status
@@ -323,7 +323,7 @@ def _solve_on_grid(problem: OcpProblem, *, initial_guess, on_progress, should_st
         notes.append(f"path limits tightened on the intervals where the dense re-propagation exceeded "
                      f"them: {len(rounds)} round(s), limits {'held' if ver.limits_held else 'NOT held'}")
     progress(1.0, status.outcome.value)
-    sol = _solution(problem, nlp, num, att, ver, status, notes)
+    sol = solution_of(problem, nlp, num, att, ver, status, notes)
     sol.verification.update(agrees=agrees, agreement_tolerance=agreement, terminal=terminal,
                             terminal_held=terminal_held, terminal_tolerance=TERMINAL_TOLERANCE)
     sol.interval_errors = {"path": np.max(ver.interval_excess, axis=0) if ver.interval_excess else None,
@@ -331,7 +331,7 @@ def _solve_on_grid(problem: OcpProblem, *, initial_guess, on_progress, should_st
     return sol
 
 
-def _verify(problem: OcpProblem, nlp: PhaseNLP, num: Numbers, att: Attempt) -> Verification:
+def verify_attempt(problem: OcpProblem, nlp: PhaseNLP, num: Numbers, att: Attempt) -> Verification:
     ph = problem.phase
     t0 = ph.time.initial
     t_nodes = t0 + (att.tf - t0) * nlp.grid.tau()
@@ -349,7 +349,7 @@ def _local_errors(problem: OcpProblem, nlp: PhaseNLP, num: Numbers, att: Attempt
                         x_scale=num.x_scale)
 
 
-def _solution(problem, nlp, num, att, ver, status, notes) -> OcpSolution:
+def solution_of(problem, nlp, num, att, ver, status, notes) -> OcpSolution:
     ph, fns, g = problem.phase, nlp.fns, nlp.grid
     t0 = ph.time.initial
     t = t0 + (att.tf - t0) * g.tau()
