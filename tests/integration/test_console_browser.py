@@ -114,6 +114,17 @@ def test_cancel_a_running_job_from_its_page(browser_page, service):
     assert service.client.get(f"/v1/jobs/{job['id']}").json()["status"] == "cancelled"
 
 
+def test_delete_a_job_from_its_page(browser_page, service):
+    url, page, _ = browser_page
+    job = service.submit("midcourse", preset="upper-stage-two-corrections", params=LONG_MIDCOURSE).json()
+    page.goto(f"{url}/jobs/{job['id']}")
+    page.wait_for_selector("#kind:not(:empty)")
+    page.once("dialog", lambda dialog: dialog.accept())  # the confirm() before deleting
+    page.click("#delete")
+    page.wait_for_url(f"{url}/")
+    assert service.client.get(f"/v1/jobs/{job['id']}").status_code == 404
+
+
 def test_compare_two_jobs_on_one_plot(browser_page, service):
     url, page, _ = browser_page
     ids = []
