@@ -9,8 +9,8 @@ bits (a polynomial predictor, as in FPZIP; chosen per array by the smallest resi
 eight byte planes (the Blosc/HDF5 "shuffle": the sign, exponent and high mantissa bytes of
 neighbours are alike), and zlib-compresses the lot.  Bytes stored per preset, JSON text -> now (ratio;
 zlib of the JSON alone in brackets): intercept 442,564 -> 38,101 (11.6x; 2.4x), reentry Betts
-105,581 -> 29,367 (3.6x; 2.0x), robust 2,579,720 -> 815,884 (3.2x; 2.1x), midcourse 17,976 -> 6,130
-(2.9x), ocp brachistochrone 6,465 -> 2,403 (2.7x).  Reading one back takes a fraction of
+105,581 -> 29,367 (3.6x; 2.0x), robust (10,000 samples) 2,579,720 -> 815,884 (3.2x; 2.1x),
+midcourse 17,976 -> 6,130 (2.9x), ocp brachistochrone 6,465 -> 2,403 (2.7x).  Reading one back takes a fraction of
 ``json.loads`` of its text (intercept 4 ms against 33 ms): arrays of one length are undone together.
 
 Everything is exact: integer differences wrap around and are undone by the same number of cumulative

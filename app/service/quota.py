@@ -139,5 +139,6 @@ def check_quota_in(session: Session | Connection, settings: Settings, *, owner: 
         stored = storage.owner_stored_bytes(session, owner)
         if stored >= cap:
             raise QuotaExceeded(f"this owner's jobs keep {stored / storage.MB:.1f} MiB; at most "
-                                f"{settings.max_stored_mb_per_owner:g} MiB per owner (TRAJLAB_MAX_STORED_MB_PER_OWNER): "
-                                "delete jobs (DELETE /v1/jobs/{id}, trajlab delete) to submit more", retry)
+                                f"{settings.max_stored_mb_per_owner:g} MiB per owner "
+                                "(TRAJLAB_MAX_STORED_MB_PER_OWNER): delete jobs (DELETE /v1/jobs/{id}, "
+                                "trajlab delete) to submit more", retry)

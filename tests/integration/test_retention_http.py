@@ -187,8 +187,8 @@ def test_migration_0006_on_postgresql_keeps_results_both_ways():
             conn.execute(text("INSERT INTO jobs (id, kind, status, progress, message, params, created_at, attempts, "
                               "cancel_requested, queue) VALUES (:id, 'intercept', 'succeeded', 1.0, 'done', "
                               "CAST(:p AS json), now(), 1, false, 'trajlab.jobs')"), {"id": old_id, "p": '{"p": 1}'})
-            conn.execute(text("INSERT INTO job_results (job_id, data, created_at) VALUES (:id, CAST(:d AS json), now())"),
-                         {"id": old_id, "d": json.dumps(legacy)})
+            conn.execute(text("INSERT INTO job_results (job_id, data, created_at) "
+                              "VALUES (:id, CAST(:d AS json), now())"), {"id": old_id, "d": json.dumps(legacy)})
         upgrade(url)
         db = get_database(url)
         assert jobs.get_result(db, old_id) == legacy

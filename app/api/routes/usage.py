@@ -29,7 +29,8 @@ class Usage(BaseModel):
 
 @router.get("", response_model=Usage)
 def get_usage(db: DatabaseDep, settings: SettingsDep, principal: PrincipalDep,
-              owner: Annotated[str | None, Query(max_length=100, description="Admins only: another owner's usage")] = None):
+              owner: Annotated[str | None, Query(max_length=100,
+                                                description="Admins only: another owner's usage")] = None):
     """The caller's usage; an admin sees every owner's together, or one owner's with `owner`."""
     who = owner if principal.admin and owner is not None else principal.owner_filter
     return storage.usage(db, settings, owner=who)
