@@ -1,6 +1,7 @@
 """Mesh refinement against uniform grids (issue 26 item 5): the row ``benchmarks.ocp`` prints last.
 
-For each problem and the accuracy 1e-6 (the re-flown states within 1e-6 of each state's scale):
+For each problem and transcription (brachistochrone by multiple shooting and by LGL, Betts' shuttle
+by multiple shooting) and the accuracy 1e-6 (the re-flown states within 1e-6 of each state's scale):
 
 * **refined**: :func:`solvers.ocp.solve` with ``accuracy`` from a coarse grid (``START``), cold
   (solver cache and symbolic functions cleared), every round counted: build, IPOPT, the DOP853
@@ -23,18 +24,21 @@ from solvers.ocp.solver import reset_caches
 from solvers.transcription.nlp import clear_cache
 
 ACCURACY = 1e-6
-START = {"brachistochrone": 4, "betts-shuttle-ocp": 50}
+# (preset, transcription method) -> the coarse grid the refinement starts from
+START = {("brachistochrone", "multiple_shooting"): 4, ("brachistochrone", "lgl"): 4,
+         ("betts-shuttle-ocp", "multiple_shooting"): 50}
 
 
-def _params(name: str, intervals: int, accuracy: float | None) -> dict:
+def _params(case, intervals: int, accuracy: float | None) -> dict:
+    name, method = case
     params = copy.deepcopy(PRESETS[name]["params"])
-    params["transcription"]["intervals"] = intervals
+    params["transcription"].update(method=method, intervals=intervals)
     if accuracy is not None:
         params["accuracy"] = accuracy
     return params
 
 
-def _cold(name: str, intervals: int, accuracy: float | None):
+def _cold(name, intervals: int, accuracy: float | None):
     reset_caches()
     clear_cache()
     t = time.perf_counter()
@@ -46,7 +50,7 @@ def _error(sol) -> float:
     return float(sol.verification["max_state_difference_scaled_overall"])
 
 
-def smallest_uniform(name: str, start: int, accuracy: float, *, cap: int = 1000) -> tuple[int, int]:
+def smallest_uniform(name, start: int, accuracy: float, *, cap: int = 1000) -> tuple[int, int]:
     """``(N, probes)``: the fewest equal intervals whose re-flight is within ``accuracy``."""
     probes = 0
 
@@ -72,8 +76,8 @@ def smallest_uniform(name: str, start: int, accuracy: float, *, cap: int = 1000)
 def refinement_rows(names=tuple(START), reps: int = 1) -> dict:
     print(f"\nmesh refinement to {ACCURACY:g} (re-flown states, scaled) against the smallest uniform grid "
           f"that reaches it; load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
-    print(f"{'problem':<19}{'form':<9}{'rounds':>7}{'intervals':>10}{'error':>10}{'iter':>6}{'time s':>8}"
-          f"{'objective':>14}  mesh")
+    print(f"{'problem':<19}{'method':<7}{'form':<9}{'rounds':>7}{'intervals':>10}{'nodes':>6}{'error':>10}"
+          f"{'iter':>6}{'time s':>8}{'objective':>14}  mesh")
     figures = {}
     for name in names:
         runs = [_cold(name, START[name], ACCURACY) for _ in range(reps)]
@@ -83,19 +87,25 @@ def refinement_rows(names=tuple(START), reps: int = 1) -> dict:
         uni = [_cold(name, n_uni, None) for _ in range(reps)]
         usol, t_uni = min(uni, key=lambda r: r[1])
         path = " -> ".join(str(r["intervals"]) for r in rounds)
-        print(f"{name:<19}{'refined':<9}{len(rounds) - 1:>7}{sol.solver['intervals']:>10}{_error(sol):>10.2e}"
-              f"{sol.solver['iterations']:>6}{t_ref:>8.2f}{sol.objective:>14.8g}  {path}")
-        print(f"{'':<19}{'uniform':<9}{'':>7}{n_uni:>10}{_error(usol):>10.2e}{usol.solver['iterations']:>6}"
+        if sol.solver.get("segment_nodes"):
+            path += f" (nodes per interval {sol.solver['segment_nodes']})"
+        method = "MS" if name[1] == "multiple_shooting" else "LGL"
+        nodes, unodes = len(sol.trajectory["t"]), len(usol.trajectory["t"])
+        print(f"{name[0]:<19}{method:<7}{'refined':<9}{len(rounds) - 1:>7}{sol.solver['intervals']:>10}{nodes:>6}"
+              f"{_error(sol):>10.2e}{sol.solver['iterations']:>6}{t_ref:>8.2f}{sol.objective:>14.8g}  {path}")
+        print(f"{'':<26}{'uniform':<9}{'':>7}{n_uni:>10}{unodes:>6}{_error(usol):>10.2e}{usol.solver['iterations']:>6}"
               f"{t_uni:>8.2f}{usol.objective:>14.8g}  smallest of {probes} probes")
         fewer, faster = sol.solver["intervals"] < n_uni, t_ref < t_uni
-        print(f"{'':<19}target: fewer intervals {'met' if fewer else 'MISSED'}, less time "
+        print(f"{'':<26}target: fewer intervals {'met' if fewer else 'MISSED'}, less time "
               f"{'met' if faster else 'MISSED'} ({t_ref / t_uni:.2f}x)")
-        figures[name] = {"accuracy": ACCURACY, "start_intervals": START[name],
+        figures[f"{name[0]} {method}"] = {"accuracy": ACCURACY, "start_intervals": START[name],
                          "refined": {"rounds": rounds, "intervals": sol.solver["intervals"], "error": _error(sol),
                                      "iterations": sol.solver["iterations"], "time_s": t_ref,
-                                     "objective": sol.objective, "reached": sol.solver.get("accuracy_reached")},
+                                     "objective": sol.objective, "reached": sol.solver.get("accuracy_reached"),
+                                     "nodes": nodes},
                          "uniform": {"intervals": n_uni, "error": _error(usol), "iterations": usol.solver["iterations"],
-                                     "time_s": t_uni, "objective": usol.objective, "probes": probes},
+                                     "time_s": t_uni, "objective": usol.objective, "probes": probes,
+                                     "nodes": unodes},
                          "fewer_intervals": fewer, "less_time": faster}
     return figures
 
