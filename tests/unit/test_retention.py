@@ -221,3 +221,25 @@ def test_migration_0006_keeps_old_results_readable_and_downgrades_without_loss(t
     assert jobs.get_result(db, new_id) == RESULT
     db.dispose()
     engine.dispose()
+
+
+def test_purge_command(sqlite_db, monkeypatch, capsys):
+    from app.cli.commands import main
+    from app.runtime.settings import get_settings
+
+    old = _finished(sqlite_db, result=RESULT, days_ago=40)
+    young = _finished(sqlite_db, result=RESULT, days_ago=1)
+    monkeypatch.setenv("TRAJLAB_DATABASE_URL", sqlite_db.url)
+    get_settings.cache_clear()
+    try:
+        assert main(["purge", "--older-than", "30", "--dry-run"]) == 0
+        assert "would delete 1 job(s)" in capsys.readouterr().out and jobs.get_job(sqlite_db, old) is not None
+        assert main(["purge", "--older-than", "30", "--status", "succeeded,running"]) == 2
+        assert "only finished jobs can be purged" in capsys.readouterr().err
+        assert main(["purge", "--older-than", "30", "--status", "failed"]) == 0
+        assert jobs.get_job(sqlite_db, old) is not None  # not failed
+        assert main(["purge", "--older-than", "30"]) == 0
+        assert "deleted 1 job(s)" in capsys.readouterr().out
+        assert jobs.get_job(sqlite_db, old) is None and jobs.get_job(sqlite_db, young) is not None
+    finally:
+        get_settings.cache_clear()
