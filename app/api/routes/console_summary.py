@@ -1,6 +1,6 @@
 """What the console's job page and job list lead with: the headline numbers a kind declares
 (app.kinds.headlines) and, for a failed job, its explanation (app.kinds.failures) with the plots of the
-last iterate the solver stored.  Every route loads jobs through ``visible_job`` (owner isolation), as
+last iterate the solver stored; and the parameter schema the New job form is generated from.  Every route loads jobs through ``visible_job`` (owner isolation), as
 the public ``/v1`` routes do; none is part of the API document (the console's own plumbing).
 """
 from __future__ import annotations
@@ -42,6 +42,17 @@ def _plots(kind: str, result: dict) -> list:
         return plot_defs.plots_for(kind, result)
     except (KeyError, TypeError, ValueError):
         return []  # a last iterate without the blocks a plot's availability test reads
+
+
+@router.get("/console/kinds/{kind}/schema")
+def kind_schema(kind: str) -> dict:
+    """The kind's parameter model as JSON schema (descriptions, bounds, enumerations, nullable fields):
+    the New job form is built from it (app/web/static/form.js).  Public, as the presets are."""
+    from app.kinds import KINDS
+
+    if kind not in KINDS:
+        raise HTTPException(status_code=404, detail=f"kind {kind} not found; known: {sorted(KINDS)}")
+    return KINDS[kind].params_model.model_json_schema()
 
 
 @router.get("/console/jobs/{job_id}/summary")

@@ -12,7 +12,7 @@ OBJECTIVE_WORDS = {"max_crossrange": "crossrange (final latitude)", "max_downran
 
 def objective_headline(objective: dict) -> Headline:
     name = OBJECTIVE_WORDS.get(objective.get("name"), objective.get("name") or "objective")
-    return number(name, objective.get("value"), objective.get("unit") or "")
+    return number(name, objective.get("value"), objective.get("unit") or "", digits=5)
 
 
 def headlines(result: dict, params: dict | None = None) -> list[Headline]:

@@ -309,19 +309,20 @@ const Console = (() => {
     const area = $("#params-json");
     let at = {};
     const isJson = () => Boolean(kinds[kindSel.value] && kinds[kindSel.value].json);
-    function showParams(values) {  // a form of fields, or the JSON editor for a document kind
+    async function showParams(values) {  // a form of fields, or the JSON editor for a document kind
       params.innerHTML = "";
       $("#json-errors").innerHTML = "";
       $("#json-editor").hidden = !isJson();
       params.hidden = isJson();
       if (isJson()) ({ text: area.value, at } = pretty(values));
+      else if (window.TrajlabForm) await TrajlabForm.build(params, kindSel.value, values);  // from the schema (form.js)
       else buildFields(params, values, "");
     }
     async function loadPreset() {
       clearErrors();
       text($("#preset-description"), presets[presetSel.value] ? presets[presetSel.value].description : "");
       const p = await getJSON("/v1/presets/" + encodeURIComponent(presetSel.value));
-      showParams(p.params);
+      await showParams(p.params);
     }
     kindSel.onchange = async () => { fillPresets(); await loadPreset(); };
     presetSel.onchange = loadPreset;
@@ -333,7 +334,7 @@ const Console = (() => {
       text($("#preset-description"), presets[presetSel.value] ? presets[presetSel.value].description : "");
       const p = JSON.parse(JSON.stringify(job.params));
       if (q.get("warm") && warmFields[job.kind]) setByPath(p, warmFields[job.kind], job.id);
-      showParams(p);
+      await showParams(p);
       $("#label").value = job.label || "";
     } else {
       if (q.get("kind") && kinds[q.get("kind")]) kindSel.value = q.get("kind");
@@ -352,7 +353,9 @@ const Console = (() => {
         // the text is the whole problem: no preset under it (a deep merge would bring back what was deleted)
         body = { kind: kindSel.value, params: values };
       } else {
-        body = { kind: kindSel.value, params: collect(params) };
+        const wrong = window.TrajlabForm ? TrajlabForm.check(params) : [];  // numbers checked before submit
+        if (wrong.length) { showErrors(kindSel.value, { body: { detail: wrong.map((w) => ({ loc: w.path.split("."), msg: w.msg })) } }); return; }
+        body = { kind: kindSel.value, params: window.TrajlabForm ? TrajlabForm.collect(params) : collect(params) };
         if (presetSel.value) body.preset = presetSel.value;
       }
       if ($("#label").value) body.label = $("#label").value;
