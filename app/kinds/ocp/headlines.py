@@ -9,10 +9,17 @@ from app.kinds.headlines import Headline, number, terminal_headline, verdict
 def _objective_words(params: dict | None) -> tuple[str, str]:
     """(words, unit) of the objective: "minimize tf" in s; a state's own unit when it is one state."""
     objective = (params or {}).get("objective") or {}
-    expr = objective.get("expr") or ("integral of " + objective["integrand"] if objective.get("integrand") else "")
+    integrand = objective.get("integrand")
+    if isinstance(integrand, dict):          # several phases: an integrand per phase
+        integrand = " + ".join(f"{v} over {k}" for k, v in integrand.items())
+    expr = objective.get("expr") or ("integral of " + str(integrand) if integrand else "")
     sense = objective.get("sense") or "minimize"
-    units = {s.get("name"): s.get("unit") or "" for s in (params or {}).get("states") or []}
+    states = list((params or {}).get("states") or [])
+    for ph in (params or {}).get("phases") or []:     # several phases: each declares its states
+        states += ph.get("states") or [] if isinstance(ph, dict) else []
+    units = {s.get("name"): s.get("unit") or "" for s in states}
     final = expr[len("final("):-1] if expr.startswith("final(") and expr.endswith(")") else None
+    final = final.split(",")[0].strip() if final else None    # final(h, "coast"): the state h
     unit = "s" if expr in ("tf", "t_f") else units.get(final or expr, "")
     return (f"{sense} {expr}" if expr else sense), unit
 
