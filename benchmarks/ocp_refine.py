@@ -8,7 +8,10 @@ by multiple shooting) and the accuracy 1e-6 (the re-flown states within 1e-6 of 
   re-flight and, for rounds not accepted, the per-interval re-flight of the error estimate;
 * **uniform**: the smallest number of equal intervals whose answer re-flies within the accuracy
   (doubling from the refined start, then bisection; each probe a plain solve without ``accuracy``),
-  then that grid solved cold as a user who knew it would, build + IPOPT + its re-flight.
+  then that grid solved cold as a user who knew it would, build + IPOPT + its re-flight.  The
+  uniform solves keep the preset's RK4 steps: the terminal check's own refinement (twice the
+  substeps on a missed final value, :data:`solvers.ocp.solver.TERMINAL_ROUNDS`) is off for them,
+  else "50 intervals" would be 50 intervals of 4 steps (the shuttle's gamma misses by 1e-6 rad at 2).
 
 The refined solve must reach the accuracy with fewer intervals and in less time.  Times are best of
 ``reps``; this machine's 2 shared cores make single runs noisy (the load average is printed).
@@ -19,6 +22,7 @@ import copy
 import os
 import time
 
+import solvers.ocp.solver as ocp_solver
 from solvers.ocp import PRESETS, parse_problem, solve
 from solvers.ocp.solver import reset_caches
 from solvers.transcription.nlp import clear_cache
@@ -38,11 +42,22 @@ def _params(case, intervals: int, accuracy: float | None) -> dict:
     return params
 
 
+def _solve(params: dict):
+    """``solve``; without ``accuracy`` on the grid as given (no terminal-miss substep rounds)."""
+    rounds = ocp_solver.TERMINAL_ROUNDS
+    if params.get("accuracy") is None:
+        ocp_solver.TERMINAL_ROUNDS = 0
+    try:
+        return solve(parse_problem(params))
+    finally:
+        ocp_solver.TERMINAL_ROUNDS = rounds
+
+
 def _cold(name, intervals: int, accuracy: float | None):
     reset_caches()
     clear_cache()
     t = time.perf_counter()
-    sol = solve(parse_problem(_params(name, intervals, accuracy)))
+    sol = _solve(_params(name, intervals, accuracy))
     return sol, time.perf_counter() - t
 
 
@@ -57,7 +72,7 @@ def smallest_uniform(name, start: int, accuracy: float, *, cap: int = 1000) -> t
     def ok(n: int) -> bool:
         nonlocal probes
         probes += 1
-        sol = solve(parse_problem(_params(name, n, None)))
+        sol = _solve(_params(name, n, None))
         return sol.status.ok and _error(sol) <= accuracy
 
     lo, hi = start, start
