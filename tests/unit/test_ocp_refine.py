@@ -199,3 +199,23 @@ def test_max_refinements_past_the_setting_is_refused_naming_it():
 def test_without_accuracy_the_grid_is_the_one_given():
     sol = solve(parse_problem(_brachistochrone(8)))
     assert sol.solver["intervals"] == 8 and "refinement" not in sol.solver
+
+
+@pytest.mark.parametrize("method,boundaries,nodes", [
+    ("multiple_shooting", (0.0, 0.05, 0.1, 0.2, 0.3, 0.32, 0.5, 0.7, 0.71, 0.8, 0.9, 1.0), None),
+    ("lgl", (0.0, 0.1, 0.5, 0.6, 1.0), (4, 6, 5, 4)),
+])
+def test_a_non_uniform_mesh_solves_and_holds_its_path_limit(method, boundaries, nodes):
+    from solvers.ocp.refine import on_mesh
+
+    params = copy.deepcopy(PRESETS["bryson-denham"]["params"])
+    params["transcription"].update(method=method, intervals=4, nodes=4)
+    sol = solve(on_mesh(parse_problem(params), rf.Mesh(boundaries, nodes)))
+    assert sol.status.outcome is Outcome.OPTIMAL, sol.status.message
+    t = np.asarray(sol.trajectory["t"])
+    if nodes is None:
+        assert t == pytest.approx(np.asarray(boundaries))          # the nodes sit on the boundaries
+    else:
+        assert t.size == sum(n - 1 for n in nodes) + 1 and sol.solver["intervals"] == 4
+    assert sol.verification["limits_held"] is True
+    assert sol.objective == pytest.approx(4.0, abs=0.02)            # Bryson & Ho: 4/(9 l) = 4 on so few intervals
