@@ -23,7 +23,14 @@ NOT_BUILT = ("<!doctype html><title>trajlab guide</title><h1>The guide is not bu
 
 
 class GuideFiles(StaticFiles):
-    """StaticFiles whose HTML pages get their inline scripts and styles a nonce (and the policy naming it)."""
+    """StaticFiles whose HTML pages get their inline scripts and styles a nonce (and the policy naming it);
+    the site is looked for on every request, so a guide built after the service started is served."""
+
+    async def __call__(self, scope, receive, send):
+        if not (SITE / "index.html").is_file():
+            await HTMLResponse(NOT_BUILT, status_code=404)(scope, receive, send)
+            return
+        await super().__call__(scope, receive, send)
 
     async def get_response(self, path, scope):
         response = await super().get_response(path, scope)
@@ -35,10 +42,5 @@ class GuideFiles(StaticFiles):
 
 
 def mount(app: FastAPI) -> None:
-    if (SITE / "index.html").is_file():
-        app.add_api_route("/guide", lambda: RedirectResponse("/guide/"), include_in_schema=False)
-        app.mount("/guide", GuideFiles(directory=str(SITE), html=True), name="guide")
-    else:
-        app.add_api_route("/guide", lambda: HTMLResponse(NOT_BUILT, status_code=404), include_in_schema=False)
-        app.add_api_route("/guide/{path:path}", lambda path: HTMLResponse(NOT_BUILT, status_code=404),
-                          include_in_schema=False)
+    app.add_api_route("/guide", lambda: RedirectResponse("/guide/"), include_in_schema=False)
+    app.mount("/guide", GuideFiles(directory=str(SITE), html=True, check_dir=False), name="guide")
