@@ -129,10 +129,13 @@ def solve_refined(problem, *, solve_on_grid, initial_guess, should_stop, **kw):
 
     trials: list[Trial] = []
 
+    progress = kw.pop("on_progress", None)
+
     def solve(mesh, previous):
         p = on_mesh(problem, mesh)
         warm = previous if not isinstance(previous, Trial) else warm_of(previous.sol)
-        trials.append(Trial(solve_on_grid(p, initial_guess=warm, should_stop=should_stop, **kw), p))
+        trials.append(Trial(solve_on_grid(p, initial_guess=warm, should_stop=should_stop,
+                                          on_progress=round_progress(progress, len(trials), mesh.intervals), **kw), p))
         return trials[-1]
 
     out = rf.refine(mesh=mesh_of(problem), solve=solve, accept=accepts(problem), plan=planner(problem),
@@ -199,6 +202,18 @@ def solve_terminal(problem, *, solve_on_grid, initial_guess, should_stop, rounds
         sol.solver["terminal_refinements"] = words
         sol.solver["refinement"] = out.rounds
     return sol
+
+
+def round_progress(progress, k: int, intervals: int):
+    """The job's progress for round ``k``: round 0 fills [0, 1/2], round 1 [1/2, 3/4], ... (the
+    number of rounds is not known ahead), each message prefixed with its round."""
+    if progress is None:
+        return None
+    lo = 1.0 - 0.5**k
+
+    def on_progress(fraction: float, message: str) -> None:
+        progress(lo + 0.5**(k + 1) * fraction, f"refinement round {k} ({intervals} intervals): {message}")
+    return on_progress
 
 
 def _account(out: rf.RefineResult, trials: list[Trial]):

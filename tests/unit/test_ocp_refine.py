@@ -184,6 +184,8 @@ def test_the_kind_reports_accuracy_not_reached_as_its_error_code():
     assert out.status == "failed" and out.error["code"] == "accuracy_not_reached", out.error
     assert out.result["solver"]["refinement"][0]["intervals"] == 8
     assert out.result["solver"]["accuracy_reached"] is False
+    from app.kinds.ocp.result import OcpResult
+    OcpResult.model_validate(out.result)          # every field of the refinement typed
 
 
 def test_max_refinements_past_the_setting_is_refused_naming_it():
