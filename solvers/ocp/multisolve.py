@@ -39,6 +39,7 @@ from solvers.ocp.terminal import (
     grid_words,
     terminal_checks,
 )
+from solvers.ocp.verify import local_errors
 
 
 @dataclass
@@ -53,6 +54,9 @@ class MultiPhaseSolution:
     verification: dict
     solver: dict
     notes: list[str] = field(default_factory=list)
+    # per phase, for mesh refinement (solvers.ocp.phase_refine): "path" the worst scaled path excess
+    # per interval, "state" a function giving the scaled local errors per interval
+    interval_errors: list[dict] = field(default_factory=list)
 
 
 def stored_phases(initial_guess: dict | None) -> dict[str, dict]:
@@ -68,6 +72,11 @@ def solve_phases(problem: MultiPhaseProblem, *, initial_guess: dict | None = Non
     """Solve (module docstring).  ``initial_guess``: a stored multi-phase ``ocp`` result with the
     same phase names (each phase's trajectory interpolated onto its grid)."""
     del seed
+    if problem.accuracy is not None:
+        from solvers.ocp.phase_refine import solve_phases_refined
+        return solve_phases_refined(
+            problem, initial_guess=initial_guess, should_stop=should_stop,
+            solve_once=lambda mp, warm, should_stop: _solve_once(mp, warm, on_progress, should_stop, ipopt))
     sol = _solve_once(problem, initial_guess, on_progress, should_stop, ipopt)
     refinements = []
     while sol.status.outcome is Outcome.TERMINAL_NOT_HELD and len(refinements) < TERMINAL_ROUNDS:
@@ -133,13 +142,15 @@ def _solve_once(mp: MultiPhaseProblem, initial_guess, on_progress, should_stop, 
     status.build_time_s = build_time if not nlp.was_cached else 0.0
     theta = res.x[:nth] * (nums[0].theta_scale if nth else 1.0)
     progress(0.92, "re-flying each phase")
-    phases, notes = [], []
+    phases, notes, errors = [], [], []
     all_ok, limits_held, terminal_held, agrees, worst_all = True, True, True, True, 0.0
     for ph, b, num in zip(mp.phases, nlp.blocks, nums):
         t0 = float(res.x[b.t0_col] * num.t_scale)
         prob = replace(b.problem, phase=replace(b.problem.phase, time=replace(b.problem.phase.time, initial=t0)))
         att = Attempt(b.nlp, num, SimpleNamespace(x=res.x[b.colmap], status=status, f=float("nan")))
         ver = verify_attempt(prob, b.nlp, num, att)
+        errors.append({"path": np.max(ver.interval_excess, axis=0) if ver.interval_excess else None,
+                       "state": _local(b, num, att, t0)})
         fns = b.nlp.fns
         terminal = terminal_checks(problem=prob, fns=fns, x_scale=num.x_scale, c=num.p[:fns.nc], theta=att.theta,
                                    tf=att.tf, x=ver.x, u=ver.u) if ver.ok else {}
@@ -185,7 +196,17 @@ def _solve_once(mp: MultiPhaseProblem, initial_guess, on_progress, should_stop, 
     return MultiPhaseSolution(status=status, objective=float(nlp.sign * res.f), sense=mp.objective.sense,
                               t0=phases[0]["t0"], tf=phases[-1]["tf"],
                               parameters={q.name: float(theta[i]) for i, q in enumerate(mp.parameters)},
-                              phases=phases, verification=verification, solver=solver, notes=notes)
+                              phases=phases, verification=verification, solver=solver, notes=notes,
+                              interval_errors=errors)
+
+
+def _local(b, num, att, t0: float):
+    """The phase's scaled local error per interval, computed when asked (a second re-flight)."""
+    def run():
+        return local_errors(fns=b.nlp.fns, grid=b.nlp.grid, t_nodes=t0 + (att.tf - t0) * b.nlp.grid.tau(), X=att.X,
+                            U=b.nlp.node_controls(att.U), theta=att.theta, c=num.p[:b.nlp.fns.nc], t0=t0,
+                            tf=att.tf, x_scale=num.x_scale)
+    return run
 
 
 def _link_values(mp: MultiPhaseProblem, phases: list[dict], theta) -> dict[str, dict]:

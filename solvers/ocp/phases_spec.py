@@ -52,7 +52,8 @@ from solvers.ocp.problem import Constraint, Objective, OcpProblem, TimeSpec
 
 PHASE_FIELDS = ("name", "states", "controls", "time", "expressions", "dynamics", "path", "boundary",
                 "transcription", "guess")
-TOP_FIELDS = ("title", "constants", "tables", "parameters", "objective", "links", "phases", "guess", "plots")
+TOP_FIELDS = ("title", "constants", "tables", "parameters", "objective", "links", "phases", "guess", "plots",
+              "accuracy", "accuracy_required")
 SINGLE_ONLY = ("states", "controls", "time", "expressions", "dynamics", "path", "boundary", "transcription")
 TIME_FIELDS = ("initial", "initial_lower", "initial_upper", "initial_guess", "final", "final_lower",
                "final_upper", "final_guess")
@@ -106,7 +107,8 @@ class MultiPhaseProblem:
     state_links: tuple[tuple[int, str], ...]   # (k, x): initial(x, k+1) = final(x, k)
     from_job: str | None = None
     plots: tuple[tuple[str, str], ...] = ()
-    accuracy: float | None = None
+    accuracy: float | None = None         # mesh refinement of every phase (solvers.ocp.phase_refine)
+    accuracy_required: bool = True
 
     @property
     def phase_names(self) -> tuple[str, ...]:
@@ -213,9 +215,13 @@ def parse_phases(params: dict, limits: OcpLimits, parse_problem) -> MultiPhasePr
         if params.get(k) not in (None, [], {}):
             raise OcpInputError(f"{P}.{k}", f"'{k}' belongs to a phase when params.phases is given: "
                                             f"write it in each phase (params.phases.<i>.{k})")
-    if params.get("accuracy") is not None:
-        raise OcpInputError(f"{P}.accuracy", "mesh refinement (accuracy) is not offered for several phases yet")
-    unknown_fields({k: v for k, v in params.items() if k not in SINGLE_ONLY and k != "accuracy"}, TOP_FIELDS, P)
+    unknown_fields({k: v for k, v in params.items() if k not in SINGLE_ONLY}, TOP_FIELDS, P)
+    accuracy = number_at(params.get("accuracy"), f"{P}.accuracy")
+    if accuracy is not None and not accuracy > 0:
+        raise OcpInputError(f"{P}.accuracy", "must be positive")
+    accuracy_required = params.get("accuracy_required", True)
+    if not isinstance(accuracy_required, bool):
+        raise OcpInputError(f"{P}.accuracy_required", "true or false")
     raw_phases = list_at(params.get("phases"), f"{P}.phases")
     if not raw_phases:
         raise OcpInputError(f"{P}.phases", "at least one phase is required")
@@ -347,7 +353,8 @@ def parse_phases(params: dict, limits: OcpLimits, parse_problem) -> MultiPhasePr
     return MultiPhaseProblem(title=first.title, constants=first.constants, tables=first.tables,
                              parameters=first.parameters, phases=tuple(phases), objective=objective,
                              links=tuple(links), time_links=tuple(time_links), state_links=tuple(state_links),
-                             from_job=from_job, plots=tuple(plots))
+                             from_job=from_job, plots=tuple(plots), accuracy=accuracy,
+                             accuracy_required=accuracy_required)
 
 
 def _events(expr) -> set[tuple]:

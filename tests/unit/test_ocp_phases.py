@@ -237,3 +237,19 @@ def test_a_warm_start_from_the_same_phases_converges_at_once():
     with pytest.raises(JobFailure, match="single phase cannot start"):
         check_warm_start(stored, parse_problem(PRESETS["brachistochrone"]["params"]), job_id="j",
                          field="guess.from_job")
+
+
+def test_every_phase_mesh_refined_to_the_accuracy():
+    # from 4 intervals per phase: each phase's mesh is planned from its own interval errors
+    p = goddard(accuracy=1e-7)
+    for ph in p["phases"]:
+        ph["transcription"]["intervals"] = 4
+    sol = solve(parse_problem(p))
+    assert sol.status.outcome is Outcome.OPTIMAL, sol.status.message
+    rounds = sol.solver["refinement"]
+    assert sol.solver["accuracy_reached"] and len(rounds) >= 2
+    assert rounds[0]["max_error"] > 1e-7 >= rounds[-1]["max_error"]
+    assert sol.verification["max_state_difference_scaled_overall"] <= 1e-7
+    assert rounds[-1]["intervals"] == sum(ph["solver"]["intervals"] for ph in sol.phases) > 12
+    assert sol.objective == pytest.approx(1.01283, abs=1e-4)
+    assert sol.objective == pytest.approx(solve(parse_problem(GODDARD3)).objective, abs=2e-6)
