@@ -46,7 +46,9 @@ ALWAYS_HEAVY = frozenset({"robust_reentry"})
 
 def _reentry_cost(p: dict) -> float:
     grid = p.get("grid") or {}
-    return float(grid.get("intervals", 100)) * float(grid.get("substeps", 2))
+    # with accuracy, each refinement round may solve again (on more intervals), as ocp's cost counts
+    rounds = 1.0 + (float(grid.get("max_refinements", 8)) if p.get("accuracy") else 0.0)
+    return float(grid.get("intervals", 100)) * float(grid.get("substeps", 2)) * rounds
 
 
 def _robust_cost(p: dict) -> float:

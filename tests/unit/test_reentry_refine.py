@@ -46,3 +46,13 @@ def test_the_reentry_params_carry_the_accuracy_and_cap_the_rounds(monkeypatch):
     assert to_problem(ReentryParams.model_validate({})).accuracy is None
     with pytest.raises(ValidationError, match="TRAJLAB_MAX_GRID_REFINEMENTS"):
         ReentryParams.model_validate({"grid": {"max_refinements": 21}})
+
+
+def test_robust_reentry_refuses_accuracy_and_refinement_costs_its_rounds():
+    from app.kinds.robust_reentry.params import RobustReentryParams
+    from app.service.quota import estimate_cost
+
+    with pytest.raises(ValidationError, match="robust_reentry"):
+        RobustReentryParams.model_validate({"accuracy": 1e-6})
+    assert estimate_cost("reentry", {"accuracy": 1e-6, "grid": {"intervals": 50, "max_refinements": 3}}) == \
+        4 * estimate_cost("reentry", {"grid": {"intervals": 50}})

@@ -106,4 +106,8 @@ class RobustReentryParams(ReentryParams):
             raise ValueError("path.max_heat_rate_w_m2 is required for robust_reentry")
         if self.grid.control != "linear":
             raise ValueError("grid.control must be 'linear' for robust_reentry")
+        if self.accuracy is not None:
+            # the robust stage solves on grid.intervals; a refined deterministic stage would not match it
+            raise ValueError("accuracy (mesh refinement) is offered by the reentry kind, not by robust_reentry: "
+                             "set grid.intervals")
         return self
