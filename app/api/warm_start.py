@@ -10,7 +10,9 @@ each such field of the resolved parameters must name a job that
   another owner's job gets the same answer as an unknown one (existence is not
   disclosed);
 * is of the same kind (a reentry result is not an intercept guess);
-* has succeeded (a failed or unfinished job has no answer to start from).
+* has succeeded (a failed or unfinished job has no answer to start from);
+* fits, where the kind says what fits (``KindSpec.warm_start_misfit``: an ``ocp`` problem of several
+  phases starts only from a result with the same phases).
 
 Anything else is a 422 naming ``params.<path>`` and the reason, instead of a job
 that is accepted and later fails.
@@ -54,12 +56,21 @@ def _reason(db: Database, job_id: str, *, kind: str, principal: Principal) -> st
     return None
 
 
+def _misfit(db: Database, job_id: str, *, kind: str, params: dict) -> str | None:
+    from app.kinds import KINDS
+
+    check = getattr(KINDS.get(kind), "warm_start_misfit", None)
+    stored = jobs.get_result(db, job_id) if check is not None else None
+    return check(stored, params) if isinstance(stored, dict) else None
+
+
 def check_warm_starts(db: Database, *, kind: str, params: dict, principal: Principal,
                       loc: tuple = ("body", "params")) -> None:
     """Raise a 422 (``RequestValidationError``) for every ``from_job`` that names no usable job."""
     errors = []
     for path, job_id in warm_start_fields(params):
-        reason = _reason(db, job_id, kind=kind, principal=principal)
+        reason = _reason(db, job_id, kind=kind, principal=principal) or \
+            _misfit(db, job_id, kind=kind, params=params)
         if reason is not None:
             errors.append({"loc": (*loc, *path), "msg": reason, "type": "warm_start", "input": job_id})
     if errors:

@@ -59,15 +59,13 @@ def test_a_warm_start_from_the_stored_phases(service, staged):
     result = service.result(done["id"])
     assert result["warm_start"] == staged["id"]
     assert result["objective"]["value"] == pytest.approx(CASES["two-stage-ascent"]["optimum"], abs=0.5)
-    # a single phase cannot start from several: a clean failure naming the field and the reason
+    # a single phase cannot start from several, nor other phases: 422s at the door naming the field and why
     resp = service.submit("ocp", preset="brachistochrone", params={"guess": {"from_job": staged["id"]}})
-    assert resp.status_code in (202, 422), resp.text
-    if resp.status_code == 422:
-        assert "guess.from_job" in resp.json()["message"]
-        return
-    done = service.wait(resp.json()["id"], timeout=120)
-    assert done["status"] == "failed" and done["error"]["code"] == "invalid_input", done
-    assert "guess.from_job" in done["error"]["message"] and "multi-phase" in done["error"]["message"]
+    assert resp.status_code == 422, resp.text
+    assert resp.json()["detail"][0]["loc"] == ["body", "params", "guess", "from_job"]
+    assert "multi-phase" in resp.json()["message"]
+    resp = service.submit("ocp", preset="goddard-three-phases", params={"guess": {"from_job": staged["id"]}})
+    assert resp.status_code == 422 and "phase names must be the same" in resp.json()["message"], resp.text
 
 
 def test_bad_phases_are_422s_naming_the_field_and_nothing_is_stored(service):

@@ -19,7 +19,7 @@ from app.kinds.base import (
     outcome_from_status,
 )
 from app.kinds.ocp.params import OcpParams
-from app.kinds.ocp.phase_kind import check_warm_start, phases_cost
+from app.kinds.ocp.phase_kind import check_warm_start, misfit, phases_cost
 from app.kinds.ocp.headlines import headlines
 from app.kinds.ocp.plots import plots
 from app.kinds.ocp.result import OcpResult, build_result
@@ -143,4 +143,5 @@ SPEC = KindSpec(
     cost=cost,
     plots=plots,
     headlines=headlines,
+    warm_start_misfit=misfit,
 )

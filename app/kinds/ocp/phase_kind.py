@@ -10,6 +10,20 @@ from __future__ import annotations
 from app.kinds.base import JobFailure
 
 
+def misfit(stored: dict, params: dict) -> str | None:
+    """Why ``stored`` cannot start the resolved ``params`` (phase names), or None: the door's 422."""
+    stored_names = [p.get("name") for p in stored.get("phases") or [] if isinstance(p, dict)]
+    names = [p.get("name") for p in params.get("phases") or [] if isinstance(p, dict)]
+    if not names and stored_names:
+        return f"a multi-phase result (phases {stored_names}); a single phase cannot start from it"
+    if names and not stored_names:
+        return f"a single-phase result; a multi-phase problem starts from one with the same phases {names}"
+    if names != stored_names:
+        return (f"its phases are {stored_names}, this problem's {names}: the phase names must be the same, "
+                "in the same order")
+    return None
+
+
 def check_warm_start(stored: dict, problem, *, job_id: str, field: str) -> None:
     """A :class:`JobFailure` (``invalid_input``) naming ``field`` and the reason when ``stored`` cannot
     start ``problem``."""
@@ -38,5 +52,5 @@ def phases_cost(params: dict, cost_one) -> float:
         if not isinstance(ph, dict):
             continue
         mine = integrand.get(ph.get("name")) if isinstance(integrand, dict) else integrand
-        total += cost_one({**ph, "objective": {"integrand": mine}, "accuracy": None})
+        total += cost_one({**ph, "objective": {"integrand": mine}, "accuracy": params.get("accuracy")})
     return total
