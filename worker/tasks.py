@@ -16,7 +16,8 @@ import logging
 import socket
 import time
 
-from celery.exceptions import Ignore, SoftTimeLimitExceeded
+from celery import Task
+from celery.exceptions import Ignore, SoftTimeLimitExceeded, TimeLimitExceeded
 from sqlalchemy.exc import DBAPIError, OperationalError
 from sqlalchemy.exc import TimeoutError as PoolTimeout
 
@@ -64,7 +65,8 @@ def execute_job(db: Database, settings: Settings, job_id: str, attempt: int, *, 
     ctx = WorkerJobContext(db, claim, settings=settings, celery=celery_app)
     guard = JobGuard(job_id=job_id, cap_bytes=settings.job_memory_mb * MB if settings.job_memory_mb else None,
                      deadline=ctx.deadline, grace_s=settings.hard_time_limit_margin_s / 2,
-                     time_limit_message=_time_limit_error(settings, claim.kind, native=True)["message"],
+                     time_limit_message=_time_limit_error(settings, claim.kind,
+                                                          ended_after_s=settings.hard_time_limit_margin_s / 2)["message"],
                      on_breach=lambda error: _give_up(db, settings, job_id, claim.attempt, error))
     with ctx, guard:
         try:
@@ -132,9 +134,10 @@ def _store(db: Database, settings: Settings, job_id: str, attempt: int, outcome:
             delay = min(2 * delay, 5.0)
 
 
-def _time_limit_error(settings: Settings, kind: str, *, native: bool = False) -> dict:
-    how = (f"; it did not stop within {settings.hard_time_limit_margin_s / 2:.0f} s (inside a native call), so "
-           "its worker process was ended") if native else ""
+def _time_limit_error(settings: Settings, kind: str, *, ended_after_s: float | None = None) -> dict:
+    """``ended_after_s``: the job did not stop by itself and its process was ended this long past the limit."""
+    how = (f"; it did not stop within {ended_after_s:.0f} s (inside a native call), so its worker process was "
+           "ended") if ended_after_s is not None else ""
     return {"code": "time_limit",
             "message": f"the {kind} job ran past its time limit of {time_limit_s(settings, kind):.0f} s "
                        f"(TRAJLAB_TIME_LIMIT_{kind.upper()}_S){how}"}
@@ -149,7 +152,24 @@ def _give_up(db: Database, settings: Settings, job_id: str, attempt: int, error:
             publish_or_defer(db, celery_app, settings, nxt)
 
 
-@celery_app.task(name="trajlab.run_job", bind=True, max_retries=None)
+class JobTask(Task):
+    """``run_job``'s task class: a job whose process Celery's hard time limit killed is stored as failed."""
+
+    def on_failure(self, exc, task_id, args, kwargs, einfo) -> None:
+        # Celery calls this in the worker's main process after the hard limit killed the pool process (the
+        # job's guard could not end it first: its thread needs the GIL, which a native call may hold).
+        # Without it the job stayed running until the reaper re-ran it as if its worker had been lost.
+        if not isinstance(exc, TimeLimitExceeded) or len(args) != 2:
+            return
+        settings = get_settings()
+        db = get_database(settings.database_url, settings)
+        job = jobs.get_job(db, args[0])
+        if job is not None:
+            _give_up(db, settings, job.id, int(args[1]),
+                     _time_limit_error(settings, job.kind, ended_after_s=settings.hard_time_limit_margin_s))
+
+
+@celery_app.task(name="trajlab.run_job", bind=True, max_retries=None, base=JobTask)
 def run_job(self, job_id: str, attempt: int) -> str | None:
     settings = get_settings()
     try:

@@ -98,3 +98,27 @@ def test_rlimit_data_backs_the_sampling_up_and_is_restored(tmp_path):
     with g, pytest.raises(MemoryError):
         np.empty(int(guard.DATA_BACKSTOP * 50 * MB * 4), dtype=np.uint8)
     assert resource.getrlimit(resource.RLIMIT_DATA) == before
+
+
+def test_a_job_whose_process_the_hard_limit_killed_is_stored_as_time_limit(sqlite_db, monkeypatch):
+    # Celery calls the task's on_failure in the worker's main process after its hard limit killed the pool
+    # process (a native call holding the GIL, so that the guard's thread could not act): the job is stored
+    # failed at once, not left running for the reaper to re-run as lost.
+    from celery.exceptions import TimeLimitExceeded
+
+    from app.runtime.settings import Settings
+    from app.service import jobs
+    from worker import tasks
+
+    settings = Settings(database_url=sqlite_db.url, hard_time_limit_margin_s=60)
+    monkeypatch.setattr(tasks, "get_settings", lambda: settings)
+    job, _ = jobs.create_job(sqlite_db, kind="reentry", params={}, label=None, preset=None)
+    claim = jobs.claim(sqlite_db, job.id, 1, worker="w", max_attempts=3, stale_after_s=60)
+    assert claim is not None
+    tasks.run_job.on_failure(RuntimeError("an ordinary failure"), "t", (job.id, 1), {}, None)
+    assert jobs.get_job(sqlite_db, job.id).status == "running"  # only the hard limit is handled here
+    tasks.run_job.on_failure(TimeLimitExceeded(660.0), "t", (job.id, 1), {}, None)
+    done = jobs.get_job(sqlite_db, job.id)
+    assert done.status == "failed" and done.attempts == 1
+    assert done.error["code"] == "time_limit"
+    assert "TRAJLAB_TIME_LIMIT_REENTRY_S" in done.error["message"] and "within 60 s" in done.error["message"]
