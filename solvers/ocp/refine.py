@@ -141,6 +141,11 @@ def solve_refined(problem, *, solve_on_grid, initial_guess, should_stop, **kw):
     out = rf.refine(mesh=mesh_of(problem), solve=solve, accept=accepts(problem), plan=planner(problem),
                     max_rounds=problem.transcription.max_refinements, should_stop=should_stop,
                     previous=initial_guess)
+    if out.last.sol.status.outcome is Outcome.CANCELLED:
+        out.best = out.last          # a cancelled job says so, whatever an earlier round reached
+    elif out.stopped == "cancelled":         # asked to stop between two rounds
+        out.best.sol.status.outcome = Outcome.CANCELLED
+        out.best.sol.status.message = "cancelled between mesh-refinement rounds"
     sol = _account(out, trials)
     sol.solver["refinement"] = out.rounds
     best = out.best

@@ -129,6 +129,11 @@ def solve(problem, *, initial_guess=None, on_progress=None, should_stop=None, se
 
     out = rf.refine(mesh=problem.intervals, solve=solve_on, accept=accept, plan=plan,
                     max_rounds=problem.max_refinements, should_stop=should_stop, previous=initial_guess)
+    if out.last.sol.status.outcome is Outcome.CANCELLED:
+        out.best = out.last          # a cancelled job says so, whatever an earlier round reached
+    elif out.stopped == "cancelled":         # asked to stop between two rounds
+        out.best.sol.status.outcome = Outcome.CANCELLED
+        out.best.sol.status.message = "cancelled between mesh-refinement rounds"
     return _report(problem, out, trials)
 
 

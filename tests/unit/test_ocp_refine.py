@@ -221,3 +221,8 @@ def test_a_non_uniform_mesh_solves_and_holds_its_path_limit(method, boundaries, 
         assert t.size == sum(n - 1 for n in nodes) + 1 and sol.solver["intervals"] == 4
     assert sol.verification["limits_held"] is True
     assert sol.objective == pytest.approx(4.0, abs=0.02)            # Bryson & Ho: 4/(9 l) = 4 on so few intervals
+
+
+def test_a_cancelled_refinement_is_cancelled():
+    sol = solve(parse_problem(_brachistochrone(accuracy=1e-9)), should_stop=lambda: True)
+    assert sol.status.outcome is Outcome.CANCELLED
