@@ -7,7 +7,9 @@ of the state's scale, and each boundary constraint that depends on the final sta
 that much miss in every state moves it (to first order, by finite differences on the events
 function).  A miss is refined, warm-started, on a finer grid (multiple shooting: twice the RK4
 substeps, up to ``MAX_SUBSTEPS``; LGL: twice the segments), at most ``TERMINAL_ROUNDS`` times;
-then the solve ends ``terminal_not_held`` with its best answer, never a silent success.
+then the solve ends ``terminal_not_held`` with its best answer, never a silent success.  These
+rounds run through the same loop as mesh refinement (:mod:`solvers.ocp.refine`); with ``accuracy``
+set, that refinement handles a terminal miss instead (its target lowered to this tolerance).
 """
 from __future__ import annotations
 
