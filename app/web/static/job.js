@@ -38,6 +38,7 @@
   async function showFailure(id, f, plots) {
     const box = $("#failure");
     box.hidden = false;
+    $("#error").hidden = true;  // the section below says it all, in more words
     $("#numbers-section").hidden = true;  // a failed job has no key numbers: no empty heading
     $("#failure-code").textContent = f.code;
     $("#failure-what").textContent = f.what;
