@@ -6,8 +6,9 @@ are the single phase's (:mod:`solvers.ocp.solver`), placed in the global vector.
 each phase is re-flown and checked on its own, as a single phase is (:mod:`solvers.ocp.verify`,
 :mod:`solvers.ocp.terminal`): the phase's controls from its own solved initial state.  A
 terminal condition missed on the re-flight refines every phase's grid (as a single phase does),
-warm-started.  Path limits exceeded between the nodes are reported (``limit_not_held``); the
-tighten-and-re-solve rounds of a single phase are not applied across phases.
+warm-started.  Path limits exceeded between the nodes are tightened where they were exceeded and the
+NLP solved again (:mod:`solvers.ocp.phase_limits`), as for a single phase; still exceeded, the solve
+ends ``limit_not_held``.
 """
 from __future__ import annotations
 
@@ -19,6 +20,7 @@ import numpy as np
 
 from solvers.common import Outcome, ProgressFn, SolveStatus, StopFn
 from solvers.ocp.multiphase import MultiPhaseNLP
+from solvers.ocp.phase_limits import hold_phase_limits
 from solvers.ocp.phases_spec import MultiPhaseProblem
 
 # The single phase's packing, re-flight and result of one phase, reused per phase (same package).
@@ -104,7 +106,6 @@ def _solve_once(mp: MultiPhaseProblem, initial_guess, on_progress, should_stop, 
     if ipopt is None and stored:
         ipopt = WARM_IPOPT
     nlp = MultiPhaseNLP(mp, functions_of, ipopt=ipopt)
-    nth = len(mp.parameters)
     z0, lbz, ubz = np.zeros(nlp.nz), np.full(nlp.nz, -np.inf), np.full(nlp.nz, np.inf)
     p, lbg, ubg, nums = [], [], [], []
     for ph, b in zip(mp.phases, nlp.blocks):
@@ -140,15 +141,76 @@ def _solve_once(mp: MultiPhaseProblem, initial_guess, on_progress, should_stop, 
                            should_stop=should_stop, progress_span=(0.02, 0.9))
     status = res.status
     status.build_time_s = build_time if not nlp.was_cached else 0.0
-    theta = res.x[:nth] * (nums[0].theta_scale if nth else 1.0)
     progress(0.92, "re-flying each phase")
+
+    def evaluate(r):
+        return _evaluate(mp, nlp, nums, r)
+
+    ev, rounds = evaluate(res), []
+    if status.ok and ev.all_ok and not ev.limits_held:
+        progress(0.94, "tightening path limits violated between the nodes")
+        offsets = np.cumsum([0] + [len(n.lbg) for n in nums])
+        rows = [(None if n.path_slices is None else slice(o + n.path_slices.start, o + n.path_slices.stop),
+                 len(b.problem.path), b.nlp.grid) for n, b, o in zip(nums, nlp.blocks, offsets)]
+        warm = MultiPhaseNLP(mp, functions_of, ipopt={**(ipopt or {}), **WARM_IPOPT})
+        first = (status.iterations, status.solve_time_s)
+        res, ev, rounds = hold_phase_limits(solver=warm.solver, rows=rows, bounds=(lbz, ubz, lbg, ubg), p=p,
+                                            res=res, ev=ev, evaluate=evaluate, should_stop=should_stop)
+        status = res.status
+        status.iterations = first[0] + sum(r["iterations"] for r in rounds)
+        status.solve_time_s = first[1] + sum(r["solve_time_s"] for r in rounds)
+        status.build_time_s = build_time if not nlp.was_cached else 0.0
+        status.details = {**status.details, "limit_rounds": rounds}
+    theta, phases, notes, errors = ev.theta, ev.phases, ev.notes, ev.errors
+    all_ok, limits_held, terminal_held, agrees, worst_all = ev.all_ok, ev.limits_held, ev.terminal_held, \
+        ev.agrees, ev.worst
+    if rounds:
+        notes.append(f"path limits tightened on the intervals where the dense re-propagation exceeded them: "
+                     f"{len(rounds)} round(s), limits {'held' if limits_held else 'NOT held'}")
+    if status.ok and not all_ok:
+        status.outcome = Outcome.FAILED
+        status.message += "; the re-flight of a phase failed"
+    elif status.ok and not limits_held:
+        status.outcome = Outcome.LIMIT_NOT_HELD
+        status.message = "converged, but path limits are exceeded between the nodes (see each phase's verification)"
+    elif status.ok and not terminal_held:
+        status.outcome = Outcome.TERMINAL_NOT_HELD
+        missed = {f"{p['name']}: {k}": v["miss"] for p in phases for k, v in p["verification"]["terminal"].items()
+                  if not v["held"]}
+        status.message = f"converged, but the re-flight misses terminal conditions: {missed}"
+    notes.insert(0, f"{len(phases)} phases solved as one NLP ({', '.join(p['name'] for p in phases)}); "
+                    f"links: {len(mp.links)} stated, {len(mp.time_links)} time and {len(mp.state_links)} state "
+                    "continuities by default")
+    verification = {"ok": all_ok, "limits_held": limits_held, "terminal_held": terminal_held, "agrees": agrees,
+                    "agreement_tolerance": AGREEMENT_TOLERANCE, "max_state_difference_scaled_overall": worst_all,
+                    "links": _link_values(mp, phases, theta)}
+    solver = {"method": "multiphase", "intervals": sum(p["solver"]["intervals"] for p in phases),
+              "iterations": status.iterations, "status": status.solver_status, "outcome": status.outcome.value,
+              "message": status.message, "build_time_s": status.build_time_s, "solve_time_s": status.solve_time_s,
+              "cached_build": nlp.was_cached, "max_constraint_violation": status.max_constraint_violation,
+              "limit_rounds": rounds}
+    progress(1.0, status.outcome.value)
+    return MultiPhaseSolution(status=status, objective=float(nlp.sign * res.f), sense=mp.objective.sense,
+                              t0=phases[0]["t0"], tf=phases[-1]["tf"],
+                              parameters={q.name: float(theta[i]) for i, q in enumerate(mp.parameters)},
+                              phases=phases, verification=verification, solver=solver, notes=notes,
+                              interval_errors=errors)
+
+
+def _evaluate(mp: MultiPhaseProblem, nlp: MultiPhaseNLP, nums: list, res) -> SimpleNamespace:
+    """Every phase of the answer ``res`` re-flown and checked (its verification, terminal values, trajectory)."""
+    status = res.status
+    nth = len(mp.parameters)
+    theta = res.x[:nth] * (nums[0].theta_scale if nth else 1.0)
     phases, notes, errors = [], [], []
     all_ok, limits_held, terminal_held, agrees, worst_all = True, True, True, True, 0.0
+    excess = []
     for ph, b, num in zip(mp.phases, nlp.blocks, nums):
         t0 = float(res.x[b.t0_col] * num.t_scale)
         prob = replace(b.problem, phase=replace(b.problem.phase, time=replace(b.problem.phase.time, initial=t0)))
         att = Attempt(b.nlp, num, SimpleNamespace(x=res.x[b.colmap], status=status, f=float("nan")))
         ver = verify_attempt(prob, b.nlp, num, att)
+        excess.append(ver.interval_excess)
         errors.append({"path": np.max(ver.interval_excess, axis=0) if ver.interval_excess else None,
                        "state": _local(b, num, att, t0)})
         fns = b.nlp.fns
@@ -171,33 +233,8 @@ def _solve_once(mp: MultiPhaseProblem, initial_guess, on_progress, should_stop, 
         if not ph_agrees and ver.ok:
             notes.append(f"phase {ph.name}: the re-flown controls depart from the transcription's states by "
                          f"{worst:.3g} (scaled), more than {AGREEMENT_TOLERANCE:g}: refine this phase's grid")
-    if status.ok and not all_ok:
-        status.outcome = Outcome.FAILED
-        status.message += "; the re-flight of a phase failed"
-    elif status.ok and not limits_held:
-        status.outcome = Outcome.LIMIT_NOT_HELD
-        status.message = "converged, but path limits are exceeded between the nodes (see each phase's verification)"
-    elif status.ok and not terminal_held:
-        status.outcome = Outcome.TERMINAL_NOT_HELD
-        missed = {f"{p['name']}: {k}": v["miss"] for p in phases for k, v in p["verification"]["terminal"].items()
-                  if not v["held"]}
-        status.message = f"converged, but the re-flight misses terminal conditions: {missed}"
-    notes.insert(0, f"{len(phases)} phases solved as one NLP ({', '.join(p['name'] for p in phases)}); "
-                    f"links: {len(mp.links)} stated, {len(mp.time_links)} time and {len(mp.state_links)} state "
-                    "continuities by default")
-    verification = {"ok": all_ok, "limits_held": limits_held, "terminal_held": terminal_held, "agrees": agrees,
-                    "agreement_tolerance": AGREEMENT_TOLERANCE, "max_state_difference_scaled_overall": worst_all,
-                    "links": _link_values(mp, phases, theta)}
-    solver = {"method": "multiphase", "intervals": sum(p["solver"]["intervals"] for p in phases),
-              "iterations": status.iterations, "status": status.solver_status, "outcome": status.outcome.value,
-              "message": status.message, "build_time_s": status.build_time_s, "solve_time_s": status.solve_time_s,
-              "cached_build": nlp.was_cached, "max_constraint_violation": status.max_constraint_violation}
-    progress(1.0, status.outcome.value)
-    return MultiPhaseSolution(status=status, objective=float(nlp.sign * res.f), sense=mp.objective.sense,
-                              t0=phases[0]["t0"], tf=phases[-1]["tf"],
-                              parameters={q.name: float(theta[i]) for i, q in enumerate(mp.parameters)},
-                              phases=phases, verification=verification, solver=solver, notes=notes,
-                              interval_errors=errors)
+    return SimpleNamespace(theta=theta, phases=phases, notes=notes, errors=errors, excess=excess, all_ok=all_ok,
+                           limits_held=limits_held, terminal_held=terminal_held, agrees=agrees, worst=worst_all)
 
 
 def _local(b, num, att, t0: float):

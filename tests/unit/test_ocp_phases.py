@@ -253,3 +253,25 @@ def test_every_phase_mesh_refined_to_the_accuracy():
     assert rounds[-1]["intervals"] == sum(ph["solver"]["intervals"] for ph in sol.phases) > 12
     assert sol.objective == pytest.approx(1.01283, abs=1e-4)
     assert sol.objective == pytest.approx(solve(parse_problem(GODDARD3)).objective, abs=2e-6)
+
+
+def test_path_limits_held_between_the_nodes_in_every_phase():
+    # Bryson-Denham (the bryson-denham preset's problem, J = 4) in two phases of 7 intervals: the limit
+    # x <= 1/9 is exceeded between the nodes until the bound is tightened there and solved again
+    def phase(name, tf, first):
+        return {"name": name,
+                "states": [{"name": "x", "scale": 0.1, **({"initial": 0.0} if first else {"final": 0.0})},
+                           {"name": "v", **({"initial": 1.0} if first else {"final": -1.0})}],
+                "controls": [{"name": "u", "scale": 10.0}],
+                "time": {"final": tf, **({"initial": 0.0} if first else {})},
+                "dynamics": {"x": "v", "v": "u"},
+                "path": [{"name": "x_limit", "expr": "x", "upper": 1.0 / 9.0}],
+                "transcription": {"method": "multiple_shooting", "intervals": 7, "control": "linear"}}
+    sol = solve(parse_problem({"phases": [phase("a", 0.5, True), phase("b", 1.0, False)],
+                               "objective": {"sense": "minimize", "integrand": "0.5*u**2"}}))
+    assert sol.status.outcome is Outcome.OPTIMAL, sol.status.message
+    assert len(sol.solver["limit_rounds"]) >= 1 and sol.verification["limits_held"]
+    for p in sol.phases:
+        assert p["verification"]["path"]["x_limit"]["held"]
+    # a conservative bound on a coarse grid whose corners (t = 1/3, 2/3) fall between nodes: above 4
+    assert 4.0 <= sol.objective <= 4.01
