@@ -68,9 +68,10 @@ class RedisServer:
 class PostgresServer:
     """A PostgreSQL cluster of its own (initdb in a temp directory) on a free port."""
 
-    def __init__(self, listen: tuple[str, ...] = ("127.0.0.1",)):
+    def __init__(self, listen: tuple[str, ...] = ("127.0.0.1",), root: Path | None = None):
+        # root: an empty directory to hold the cluster (a small filesystem the test mounted, tests/faults/disk.py)
         self.port, self.listen = free_port(), listen
-        self.dir = Path(tempfile.mkdtemp(prefix="trajlab-pg-"))
+        self.dir = root or Path(tempfile.mkdtemp(prefix="trajlab-pg-"))
         self.data = self.dir / "data"
         if os.geteuid() == 0:
             shutil.chown(self.dir, "postgres", "postgres")

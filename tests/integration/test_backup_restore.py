@@ -114,7 +114,7 @@ def test_backup_under_writes_restores_every_job_and_result(kind, tmp_path):
         env = {**os.environ, **overrides, "PYTHONPATH": str(ROOT)}
         worker = subprocess.Popen(
             [sys.executable, "-m", "celery", "-A", "worker.celery_app:celery_app", "worker", "--loglevel=INFO",
-             "--concurrency=2", "-n", f"backup-{uuid.uuid4().hex[:6]}@%h", "-Q", ",".join(QUEUES)],
+             "--concurrency=1", "-n", f"backup-{uuid.uuid4().hex[:6]}@%h", "-Q", ",".join(QUEUES)],
             cwd=ROOT, env=env, stdout=open(tmp_path / "worker.log", "wb"), stderr=subprocess.STDOUT,
             start_new_session=True)
         client = TestClient(create_app(Settings(**{k.removeprefix("TRAJLAB_").lower(): v
