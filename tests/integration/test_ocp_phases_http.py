@@ -81,3 +81,14 @@ def test_bad_phases_are_422s_naming_the_field_and_nothing_is_stored(service):
     assert resp.status_code == 422 and "did you mean 'stage1'" in resp.json()["message"]
     assert resp.json()["detail"][0]["loc"] == ["body", "params", "links", 0, "expr"]
     assert service.client.get("/v1/jobs", params={"kind": "ocp", "limit": 1}).json()["total"] == before
+
+
+def test_the_console_compares_two_staged_jobs(service, staged):
+    resp = service.submit("ocp", preset="two-stage-ascent", params={"constants": {"dry1": 120.0}})
+    assert resp.status_code == 202, resp.text
+    other = service.wait(resp.json()["id"], timeout=240)
+    assert other["status"] == "succeeded", other
+    # a heavier structure dropped: a lower apogee
+    assert service.result(other["id"])["objective"]["value"] < service.result(staged["id"])["objective"]["value"]
+    png = service.client.get("/console/compare.png", params={"ids": f"{staged['id']},{other['id']}"})
+    assert png.status_code == 200 and png.content[:4] == b"\x89PNG"

@@ -116,7 +116,11 @@ def _series(kind: str, result: dict):
         scan = result["impulsive"]["scan"]
         return scan["t_man_s"], scan["delta_v_mps"], "maneuver time (s)", "delta-v (m/s)", "-"
     if kind == "ocp":  # the first pair the problem asked for in `plots`, else its first quantity against time
-        tr = result["trajectory"]
+        tr = result.get("trajectory")
+        if tr is None:  # several phases, one after the other: the quantities every phase has
+            phases = [p["trajectory"] for p in result.get("phases") or []]
+            tr = {n: [v for p in phases for v in p[n]] for n in (phases[0] if phases else {})
+                  if all(n in p for p in phases)}
         x, y = (result.get("plots") or [["t", next((n for n in tr if n != "t"), "t")]])[0]
         if not (isinstance(tr.get(x), list) and isinstance(tr.get(y), list)):
             raise HTTPException(status_code=422, detail=f"compare needs ocp jobs that all have {x} and {y}")
