@@ -281,8 +281,9 @@ def parse_phases(params: dict, limits: OcpLimits, parse_problem) -> MultiPhasePr
         try:
             prob = parse_problem(body, limits)
         except OcpInputError as exc:
-            if exc.path.startswith("params.objective.integrand") and isinstance(integrand, dict):
-                exc = OcpInputError(f"params.objective.integrand.{names[i]}", exc.reason)
+            if exc.path.startswith("params.objective.integrand"):
+                where = f".{names[i]}" if isinstance(integrand, dict) else ""
+                exc = OcpInputError(f"params.objective.integrand{where}", f"in phase '{names[i]}': {exc.reason}")
             raise _relocate(exc, i) from None
         obj = replace(prob.objective, expr=None, expr_text="")
         ts = TimeSpec(initial=t0g, final=t.final, final_lower=t.final_lower, final_upper=t.final_upper,
