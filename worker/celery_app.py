@@ -3,10 +3,14 @@
 The database is the truth; Celery only delivers ``(job_id, attempt)`` messages,
 so no result backend is configured.  The settings themselves live in
 ``app.service.broker`` so the API's producer and this consumer cannot drift apart.
-Recovery (the reaper and the re-publisher) is not scheduled here: it runs in
-``app.service.recovery``'s own loop, outside the job queues.
+Recovery (the reaper, the re-publisher, retention) is not a task: it runs in
+``app.service.recovery``'s own loop, outside the job queues, in a thread of this worker's main
+process under the recovery lease (worker.recovery_duty).  A Redis that refuses writes (``maxmemory``,
+``MISCONF``) does not stop the worker (worker.broker_guard).
 """
 from __future__ import annotations
+
+import signal
 
 from celery import Celery, signals
 
@@ -14,7 +18,7 @@ from app.runtime import logs
 from app.service import metrics
 from app.service.broker import celery_config
 from app.runtime.settings import Settings, get_settings
-from worker import guard
+from worker import broker_guard, guard, recovery_duty  # noqa: F401  (recovery_duty: its signal receivers)
 
 
 def create_celery(settings: Settings | None = None) -> Celery:
@@ -29,8 +33,23 @@ def create_celery(settings: Settings | None = None) -> Celery:
         # peak, which _after_task resets to what is held now): what earlier jobs leave is not charged to
         # the next one (worker.guard), so this bounds what a process holds besides its current job.
         worker_max_memory_per_child=(settings.worker_recycle_mb or 0) * 1024 or None,
+        # A command Redis refuses in the consumer (a queue declaration's SADD while Redis is full) is a
+        # reconnect with backoff, as a lost connection is, not an exit (worker.broker_guard covers the
+        # acknowledgement, the delivery record and the restore of overdue deliveries).
+        broker_channel_error_retry=True,
     )
+    broker_guard.install()
     return app
+
+
+@signals.task_prerun.connect
+def _no_soft_limit_exception(**_) -> None:
+    # Celery's soft time limit raises SoftTimeLimitExceeded from a signal handler wherever Python happens to
+    # be: inside CasADi's IPOPT iteration callback it became IPOPT's NonIpopt_Exception_Thrown and the job
+    # failed as internal; inside the result's write it would lose the result.  A job's deadline is kept by
+    # its context instead (should_stop at every solver iteration, the same limit: worker.context), by its
+    # guard for a job that does not call back (worker.guard), and by the hard limit (worker.tasks.JobTask).
+    signal.signal(signal.SIGUSR1, signal.SIG_IGN)
 
 
 @signals.task_postrun.connect

@@ -20,6 +20,7 @@ from __future__ import annotations
 import base64
 import json
 import os
+import re
 import socket
 import threading
 import uuid
@@ -108,6 +109,17 @@ def redis_client(broker_url: str, *, settings: Settings | None = None, **kwargs)
         options.pop("socket_keepalive", None)  # a unix socket has no TCP keepalive
         return redis.Redis(unix_socket_path=broker_url.removeprefix("redis+socket://"), **options)
     return redis.Redis.from_url(broker_url, **options)
+
+
+def refusal(exc: BaseException) -> str:
+    """Redis's own words for a refused command, which carry no address or key: 'OOM command not allowed
+    when used memory > 'maxmemory'', 'MISCONF Redis is configured to save RDB snapshots, but it's
+    currently unable to persist to disk', 'READONLY You can't write against a read only replica'."""
+    # redis-py prefixes an error inside a pipeline with the command, whose arguments are ours: drop it
+    text = re.sub(r"^Command # \d+ \(.*\) of pipeline caused error: ", "", str(exc), flags=re.S)
+    text = text.split(". ")[0].strip().rstrip(".")[:200]
+    code = {"OutOfMemoryError": "OOM", "ReadOnlyError": "READONLY"}.get(type(exc).__name__, "")
+    return f"{code} {text}" if code and not text.startswith(code) else text
 
 
 RUN_JOB_TASK = "trajlab.run_job"

@@ -13,10 +13,16 @@ Every ``reaper_interval_s`` it
 * moves trade studies on whose points ended without the worker's hook;
 * applies ``TRAJLAB_RETENTION_DAYS`` (app.service.retention), at most every ``retention_interval_s``.
 
-It runs outside Celery (a thread of ``trajlab serve``, or ``trajlab recover`` in
-production, exactly one per deployment), so a backlog in the job queues never
-delays recovery, and it survives database and broker outages by logging and
-trying again at the next tick.
+It runs outside the job queues, so a backlog never delays recovery, and it survives database and
+broker outages by logging and trying again at the next tick.  It must not hang on one process, so it
+runs in many: a thread in every Celery worker's main process (worker.celery_app), in ``trajlab
+serve``, and in any ``trajlab recover``, and a lease in the database (app.service.lease) says which of
+them does the work.  The holder renews the lease every third of ``recovery_lease_s`` (that renewal is
+the recovery heartbeat ``/readyz`` reads) and passes every ``reaper_interval_s``; the others try to
+take it as often, and one of them does once it has gone unrenewed for ``recovery_lease_s`` (its holder
+died, or was cut from the database).  A clean stop gives the lease up at once.  Should two ever pass
+at once (a holder that stalls past its lease), nothing breaks: every transition is conditional on the
+row's state and a duplicate message is dropped at claim.
 """
 from __future__ import annotations
 
@@ -25,7 +31,7 @@ import re
 import threading
 import time
 
-from app.service import jobs, metrics, retention, studies
+from app.service import jobs, lease, metrics, retention, studies
 from app.service.broker import QUEUES, create_publisher, publish_job, redis_client
 from app.runtime.db import Database, get_database
 from app.runtime.settings import Settings
@@ -67,8 +73,12 @@ def job_ids_in_broker(r, *, delivered_within_s: float) -> set[str]:
     return found
 
 
+class LeaseLost(Exception):
+    """Another process holds the recovery lease now: this pass stops where it is."""
+
+
 class Recovery:
-    """One recovery pass at a time; ``run_forever`` ticks until ``stop``."""
+    """One recovery pass at a time; ``run_forever`` passes while it holds the lease, until ``stop``."""
 
     def __init__(self, settings: Settings, db: Database | None = None):
         self.settings = settings
@@ -76,7 +86,26 @@ class Recovery:
         self.celery = create_publisher(settings)
         self.redis = redis_client(settings.broker_url, settings=settings)
         self.retention = retention.Retention(settings)
+        self.holder = lease.holder_id()
+        self.holding = False
+        self._renewed = 0.0  # time.monotonic() of the last renewal
         self._stop = threading.Event()
+
+    def _renew(self) -> bool:
+        """Take or renew the lease; whether this process holds it now."""
+        was = self.holding
+        self.holding = False  # until the database says so
+        self.holding = lease.acquire(self.db, lease.RECOVERY, self.holder, length_s=self.settings.recovery_lease_s)
+        self._renewed = time.monotonic()
+        if self.holding != was:
+            log.warning("recovery lease %s by %s", "taken" if self.holding else "lost", self.holder)
+        return self.holding
+
+    def _keep_lease(self) -> None:
+        """Inside a long pass: renew when a third of the lease has gone (a no-op outside run_forever)."""
+        due = self.holding and time.monotonic() - self._renewed >= self.settings.recovery_lease_s / 3
+        if due and not self._renew():
+            raise LeaseLost()
 
     def _publish(self, job) -> bool:
         return publish_or_defer(self.db, self.celery, self.settings, job)
@@ -92,7 +121,14 @@ class Recovery:
         candidates = jobs.publish_candidates(self.db, older_than_s=s.republish_after_s)
         if candidates:
             present = job_ids_in_broker(self.redis, delivered_within_s=s.republish_after_s)
-            sent = [job.id for job in candidates if job.id not in present and self._publish(job)]
+            sent = []
+            for job in candidates:  # thousands after a long broker outage: the lease is kept meanwhile
+                self._keep_lease()
+                if job.id in present:
+                    continue
+                if not self._publish(job):
+                    break  # the broker refuses (down, or full): the rest wait for the next pass
+                sent.append(job.id)
             jobs.mark_published(self.db, sent)
             if sent:
                 done["republished"] = len(sent)
@@ -107,14 +143,34 @@ class Recovery:
         return done
 
     def run_forever(self) -> None:
-        log.info("recovery loop every %.1f s", self.settings.reaper_interval_s)
-        while not self._stop.is_set():
+        s = self.settings
+        log.info("recovery candidate %s: a pass every %.1f s while it holds the lease (%.0f s)", self.holder,
+                 s.reaper_interval_s, s.recovery_lease_s)
+        last_pass = float("-inf")
+        try:
+            while not self._stop.is_set():
+                try:
+                    if self._renew() and time.monotonic() - last_pass >= s.reaper_interval_s:
+                        last_pass = time.monotonic()  # before the pass: a failing one waits its interval too
+                        self.tick()
+                except LeaseLost:
+                    pass
+                except Exception as exc:  # a database or broker outage: try again next time
+                    log.warning("recovery pass failed (%s); retrying in %.0f s", type(exc).__name__,
+                                s.reaper_interval_s)
+                self._stop.wait(min(s.reaper_interval_s, s.recovery_lease_s / 3))
+        finally:
+            self._release()
+
+    def _release(self) -> None:
+        if self.holding:
+            self.holding = False
             try:
-                self.tick()
-            except Exception as exc:  # a database or broker outage: try again next tick
-                log.warning("recovery pass failed (%s); retrying in %.0f s", type(exc).__name__,
-                            self.settings.reaper_interval_s)
-            self._stop.wait(self.settings.reaper_interval_s)
+                lease.release(self.db, lease.RECOVERY, self.holder)
+                log.info("recovery lease given up by %s", self.holder)
+            except Exception as exc:  # it expires by itself
+                log.warning("recovery lease not given up (%s); it expires in %.0f s", type(exc).__name__,
+                            self.settings.recovery_lease_s)
 
     def start_thread(self) -> threading.Thread:
         thread = threading.Thread(target=self.run_forever, name="trajlab-recovery", daemon=True)
