@@ -140,7 +140,8 @@ def constraints_at(raw, path: str, scope: Scope, parse, limits: OcpLimits) -> tu
 
 
 def transcription_at(t: dict, path: str, limits: OcpLimits) -> Transcription:
-    unknown_fields(t, ("method", "intervals", "control", "substeps", "nodes", "max_refinements"), path)
+    unknown_fields(t, ("method", "intervals", "control", "substeps", "nodes", "max_refinements", "boundaries",
+                       "segment_nodes"), path)
     method = t.get("method", "multiple_shooting")
     if method not in METHODS:
         raise OcpInputError(f"{path}.method", f"'{method}' is not one of {', '.join(METHODS)}")
@@ -157,11 +158,42 @@ def transcription_at(t: dict, path: str, limits: OcpLimits) -> Transcription:
             raise OcpInputError(f"{path}.{key}", f"{v} is outside [{lo}, {hi}]{lim}")
         return v
 
-    return Transcription(method=method, control=control,
-                         intervals=integer("intervals", 50, 1, limits.max_intervals, "max_intervals"),
+    boundaries, segment_nodes = mesh_at(t, path, method, limits)
+    intervals = integer("intervals", 50, 1, limits.max_intervals, "max_intervals")
+    if boundaries is not None:          # the mesh sets the count (a preset's intervals is overridden)
+        intervals = len(boundaries) - 1
+    return Transcription(method=method, control=control, intervals=intervals,
                          substeps=integer("substeps", 2, 1, 16), nodes=integer("nodes", 4, 2, 12),
                          max_refinements=integer("max_refinements", 8, 0, limits.max_refinements,
-                                                 "max_refinements"))
+                                                 "max_refinements"),
+                         boundaries=boundaries, segment_nodes=segment_nodes)
+
+
+def mesh_at(t: dict, path: str, method: str, limits: OcpLimits):
+    """A non-uniform mesh (a refined result's ``solver.boundaries`` and ``segment_nodes``):
+    interval boundaries in normalized time, 0 first, 1 last, increasing; for LGL optionally the
+    nodes of each interval."""
+    raw, nodes = t.get("boundaries"), t.get("segment_nodes")
+    if raw is None:
+        if nodes is not None:
+            raise OcpInputError(f"{path}.segment_nodes", "give boundaries with segment_nodes")
+        return None, None
+    raw = list_at(raw, f"{path}.boundaries")
+    if not 2 <= len(raw) <= limits.max_intervals + 1:
+        raise OcpInputError(f"{path}.boundaries", f"{len(raw) - 1} intervals is outside [1, "
+                                                  f"{limits.max_intervals}] (limit max_intervals={limits.max_intervals})")
+    b = tuple(number_at(v, f"{path}.boundaries.{i}", optional=False) for i, v in enumerate(raw))
+    if b[0] != 0.0 or b[-1] != 1.0 or any(y <= x for x, y in zip(b, b[1:])):
+        raise OcpInputError(f"{path}.boundaries", "fractions of the horizon: 0 first, 1 last, strictly increasing")
+    if nodes is None:
+        return b, None
+    if method != "lgl":
+        raise OcpInputError(f"{path}.segment_nodes", "only for method lgl")
+    nodes = list_at(nodes, f"{path}.segment_nodes")
+    if len(nodes) != len(b) - 1 or any(isinstance(n, bool) or not isinstance(n, int) or not 2 <= n <= 12
+                                       for n in nodes):
+        raise OcpInputError(f"{path}.segment_nodes", "one integer in [2, 12] per interval")
+    return b, tuple(nodes)
 
 
 def guess_at(g: dict, path: str, states, controls) -> Guess:

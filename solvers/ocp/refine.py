@@ -151,9 +151,6 @@ def solve_refined(problem, *, solve_on_grid, initial_guess, should_stop, **kw):
     best = out.best
     sol.solver["accuracy"] = problem.accuracy
     sol.solver["accuracy_reached"] = out.reached
-    if best.problem.transcription.segment_nodes is not None:
-        sol.solver["segment_nodes"] = list(best.problem.transcription.segment_nodes)
-        sol.solver["nodes_per_interval"] = None
     summary = (f"mesh refined to the accuracy {problem.accuracy:g}: "
                + " -> ".join(f"{r['intervals']} ({_err(r['max_error'])})" for r in out.rounds)
                + " intervals (worst scaled state error)")

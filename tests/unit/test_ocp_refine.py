@@ -226,3 +226,18 @@ def test_a_non_uniform_mesh_solves_and_holds_its_path_limit(method, boundaries, 
 def test_a_cancelled_refinement_is_cancelled():
     sol = solve(parse_problem(_brachistochrone(accuracy=1e-9)), should_stop=lambda: True)
     assert sol.status.outcome is Outcome.CANCELLED
+
+
+def test_a_refined_mesh_can_be_posed_again():
+    sol = solve(parse_problem(_brachistochrone(8, accuracy=1e-8)))
+    params = _brachistochrone(8)
+    params["transcription"].pop("intervals")
+    params["transcription"]["boundaries"] = sol.solver["boundaries"] or \
+        list(np.linspace(0.0, 1.0, sol.solver["intervals"] + 1))
+    again = solve(parse_problem(params))
+    assert again.solver["intervals"] == sol.solver["intervals"]
+    assert again.objective == pytest.approx(sol.objective, abs=1e-9)
+    bad = _brachistochrone(8)
+    bad["transcription"]["boundaries"] = [0.0, 0.5, 0.4, 1.0]
+    with pytest.raises(OcpInputError, match="increasing"):
+        parse_problem(bad)

@@ -134,6 +134,12 @@ class OcpTranscription(StrictModel):
     nodes: int = Field(4, ge=2, le=12, description="lgl: collocation nodes per interval", examples=[4])
     max_refinements: int = Field(8, ge=0, description="Mesh-refinement rounds at most when `accuracy` is set "
                                  "(capped by TRAJLAB_OCP_MAX_REFINEMENTS)", examples=[8])
+    boundaries: list[float] | None = Field(None, description="A non-uniform mesh: interval boundaries as fractions "
+                                           "of the horizon (0 first, 1 last, increasing), e.g. a refined result's "
+                                           "solver.boundaries; it sets the number of intervals; null: `intervals` equal intervals",
+                                           examples=[None])
+    segment_nodes: list[int] | None = Field(None, description="lgl with boundaries: the nodes of each interval "
+                                            "(a refined result's solver.segment_nodes)", examples=[None])
 
 
 class OcpGuess(StrictModel):

@@ -55,6 +55,9 @@ class OcpResultSolver(ResultModel):
         "time (with `accuracy`, or when a missed terminal value refined the grid); absent: none")
     accuracy: Num = Field(None, description="The accuracy the mesh was refined to (null: none asked)")
     accuracy_reached: bool | None = Field(None, description="The refinement reached `accuracy`")
+    boundaries: list[float] | None = Field(None, description="A non-uniform (refined) mesh: the interval boundaries "
+                                           "as fractions of the horizon, to pose again as transcription.boundaries; "
+                                           "null: equal intervals")
     segment_nodes: list[int] | None = Field(None, description="lgl on a refined mesh: nodes of each interval")
     status: str = Field(description="The NLP solver's own status word, e.g. IPOPT's Solve_Succeeded")
     outcome: str | None = Field(None, description="What became of the solve: optimal, infeasible, "
