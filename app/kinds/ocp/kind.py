@@ -127,7 +127,8 @@ def cost(params: dict) -> float:
     width = float(len(params.get("states") or []) + len(params.get("controls") or [])) / REFERENCE_WIDTH
     size = max(MIN_CHARS, float(_text_size(params))) / REFERENCE_CHARS
     refine = 1.0 + (float(tr.get("max_refinements", 8)) if params.get("accuracy") else 0.0)
-    return float(tr.get("intervals", 50)) * steps * width * size * refine
+    intervals = len(tr["boundaries"]) - 1 if tr.get("boundaries") else tr.get("intervals", 50)
+    return float(intervals) * steps * width * size * refine
 
 
 SPEC = KindSpec(
