@@ -93,7 +93,7 @@ def test_postgres_on_a_full_disk_loses_nothing(tmp_path):
             burst.stop()
             refused = burst.check()
             accepted = burst.accepted
-            jobs, lost, twice = stack.outcome(accepted, timeout=180)
+            jobs, lost, twice = stack.outcome(accepted, timeout=60)  # the stated bound after the space returns
             done_s = max(time.monotonic() - freed_at, 0.0)
             during = [a for a in burst.answers if full_at <= a[0] <= freed_at]
             first_ok = next((t for t, code, _, _ in burst.answers if t > freed_at and code == 202), None)
@@ -164,7 +164,8 @@ def _phase(api: Embedded, filler: Filler, during) -> tuple[Burst, float, float]:
     freed_at = time.monotonic()
     time.sleep(2)
     burst.stop()
-    return burst, freed_at, _wait(lambda: api.all_final(burst.accepted), 120, "every accepted job final")
+    # the stated bound: every job accepted in the fault is final within 60 s of the space returning
+    return burst, freed_at, _wait(lambda: api.all_final(burst.accepted), 60, "every accepted job final")
 
 
 def test_embedded_database_and_data_directory_full(tmp_path):
@@ -218,6 +219,8 @@ def test_embedded_database_and_data_directory_full(tmp_path):
                    job_run_while_full_s=seen["run_while_full_s"], all_done_after_free_s=done_c)
             report("full-disk-embedded", lost=len(lost), readyz_back_s=back)
             assert not lost, {j: final.get(j) for j in lost[:10]}
+            crashes = [ln for ln in (tmp_path / "serve.log").read_text(errors="replace").splitlines() if " exited with " in ln]
+            assert not crashes, crashes  # neither Redis nor the worker died of the full disks
         finally:
             proc.send_signal(2)  # SIGINT: serve stops its worker and Redis
             try:
