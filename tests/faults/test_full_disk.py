@@ -202,12 +202,16 @@ def test_embedded_database_and_data_directory_full(tmp_path):
                 job = api.post()
                 assert job.status_code == 202, job.text  # accepted and run while the directory is full
                 seen["run_while_full_s"] = _wait(lambda: api.all_final([job.json()["id"]]), 30, "a job run while full")
+                # its plots render (the renderings are cached in the API process's memory, not in the directory)
+                png = api.http.get(api.http.get(f"/v1/jobs/{job.json()['id']}/plots").json()["plots"][0]["png"])
+                seen["plot"] = (png.status_code, png.content[:4])
             burst_c, _, done_c = _phase(api, Filler(data), data_full)
             refused_c = burst_c.check()
             assert seen["dump"] == "err", "the dump did not fail: the data directory was not full"
             assert seen["c"]["code"] == 503 and seen["c"]["data_dir"].startswith("full"), seen["c"]
             assert seen["c"]["broker"] == "up", seen["c"]  # a failed dump does not refuse writes
             assert refused_c == 0
+            assert seen["plot"] == (200, b"\x89PNG"), seen["plot"]
 
             accepted = burst_b.accepted + burst_c.accepted + [first]
             final = api.statuses(accepted)
