@@ -57,8 +57,20 @@ def _print_numbers(client, job: dict) -> None:
     elif job.get("error"):
         from app.kinds.failures import as_lines, explain
 
-        for line in as_lines(explain(job["error"])):
+        for line in as_lines(explain(job["error"], _last_iterate(client, job["id"]))):
             print(f"  {line}", file=sys.stderr)
+
+
+def _last_iterate(client, job_id: str) -> dict | None:
+    """A failed job's stored diagnostic (the 409's ``partial_result``): where the solver stopped, so the
+    explanation can say at what time; None when there is none or it cannot be read."""
+    import httpx
+
+    try:
+        r = client.http.get(f"/v1/jobs/{job_id}/result", headers=client.headers)
+        return r.json().get("partial_result") if r.status_code == 409 else None
+    except (httpx.HTTPError, ValueError, AttributeError):
+        return None
 
 
 def _follow(client, job_id: str, *, quiet: bool) -> dict:

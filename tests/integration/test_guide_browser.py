@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import os
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 from urllib.parse import urlparse
 
@@ -117,10 +119,21 @@ def test_the_reentry_tutorial_through_the_console(tab):
     assert "betts-max-crossrange-heat-limited" in row.inner_text() and "30.6" in row.inner_text()
 
 
-def test_a_limit_that_cannot_hold_fails_with_what_to_try(tab, service):
+def _trajlab(url: str, *args: str) -> subprocess.CompletedProcess:
+    env = {**os.environ, "TRAJLAB_URL": url}
+    return subprocess.run([sys.executable, "-m", "app.cli.commands", *args], env=env, capture_output=True, text=True,
+                          timeout=180)
+
+
+def test_a_limit_that_cannot_hold_fails_with_what_to_try(tab):
+    """The guide's "When a job fails" example, as written there: the CLI, then the job's page."""
     url, page = tab
-    job = service.submit("reentry", "betts-max-crossrange-heat-limited",
-                         {"path": {"max_heat_rate_w_m2": 200000.0}}).json()
+    p = _trajlab(url, "submit", "reentry", "--preset", "betts-max-crossrange-heat-limited",
+                 "--set", "path.max_heat_rate_w_m2=200000", "--wait", "--quiet")
+    assert p.returncode == 1, p.stderr
+    assert "infeasible: pinned_end_bound" in p.stderr and "proved before any iteration" in p.stderr
+    assert "What to try:" in p.stderr and "/guide/failures/" in p.stderr
+    job = {"id": p.stdout.splitlines()[0].strip()}
     page.goto(f"{url}/jobs/{job['id']}")
     page.wait_for_function("document.body.dataset.summary === 'shown'", timeout=120_000)
     assert page.is_visible("#failure") and not page.is_visible("#numbers-section")
@@ -133,3 +146,12 @@ def test_a_limit_that_cannot_hold_fails_with_what_to_try(tab, service):
     page.wait_for_function("[...document.querySelectorAll('#failure-plots img')].some(i => i.naturalWidth > 0)")
     page.wait_for_function("[...document.querySelectorAll('#failure-plots img')].every(i => i.complete)")
     _shot(page, "console-failed-job.png")
+
+
+def test_trajlab_wait_places_the_worst_defect_in_time(tab):
+    """Paper 000's case 4 cannot reach 34 deg: the CLI says so, and when (from the stored last iterate)."""
+    url, _ = tab
+    p = _trajlab(url, "submit", "reentry", "--preset", "shuttle-min-heat-load-terminal", "--wait", "--quiet")
+    assert p.returncode == 1, p.stderr
+    assert "infeasible" in p.stderr and "the flight reaches latitude" in p.stderr
+    assert "Where: around t = " in p.stderr and " s into the flight" in p.stderr

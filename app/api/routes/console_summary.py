@@ -89,7 +89,7 @@ async def last_iterate_plot(job_id: str, name: str, db: DatabaseDep, principal: 
     plot = next((p for p in _plots(job.kind, result or {}) if p.name == name), None)
     if plot is None:
         raise HTTPException(status_code=404, detail=f"no last-iterate plot {name} for job {job_id}")
-    title = f"{job.kind} {job.label or job_id[:8]}, last iterate (failed: {(job.error or {}).get('code')})"
+    title = f"{job_id[:8]}, last iterate"
     try:
         png = await run_in_threadpool(lambda: plot_defs.render(plot, result=result, params=job.params, title=title,
                                                                fmt="png"))
