@@ -97,9 +97,10 @@ def test_postgres_on_a_full_disk_loses_nothing(tmp_path):
             done_s = max(time.monotonic() - freed_at, 0.0)
             during = [a for a in burst.answers if full_at <= a[0] <= freed_at]
             first_ok = next((t for t, code, _, _ in burst.answers if t > freed_at and code == 202), None)
-            report("full-disk-postgres", accepted=len(accepted), refused=refused, refused_during=sum(
-                a[1] == 503 for a in during), accepted_during=sum(a[1] == 202 for a in during), lost=len(lost), run_twice=len(twice),
-                accepting_again_s=(first_ok - freed_at) if first_ok else -1.0, all_done_after_free_s=done_s)
+            report("full-disk-postgres", accepted=len(accepted), refused=refused,
+                   refused_during=sum(a[1] == 503 for a in during), accepted_during=sum(a[1] == 202 for a in during),
+                   lost=len(lost), run_twice=len(twice),
+                   accepting_again_s=(first_ok - freed_at) if first_ok else -1.0, all_done_after_free_s=done_s)
             assert not lost, {j: jobs.get(j, {}).get("status") for j in lost[:10]}
             assert first_ok is not None, "no submission was accepted after the space returned"
             assert any(a[1] == 503 for a in during) or _stores_retried(tmp_path), \
@@ -223,7 +224,8 @@ def test_embedded_database_and_data_directory_full(tmp_path):
                    job_run_while_full_s=seen["run_while_full_s"], all_done_after_free_s=done_c)
             report("full-disk-embedded", lost=len(lost), readyz_back_s=back)
             assert not lost, {j: final.get(j) for j in lost[:10]}
-            crashes = [ln for ln in (tmp_path / "serve.log").read_text(errors="replace").splitlines() if " exited with " in ln]
+            serve_log = (tmp_path / "serve.log").read_text(errors="replace").splitlines()
+            crashes = [line for line in serve_log if " exited with " in line]
             assert not crashes, crashes  # neither Redis nor the worker died of the full disks
         finally:
             proc.send_signal(2)  # SIGINT: serve stops its worker and Redis

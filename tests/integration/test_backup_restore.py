@@ -172,7 +172,8 @@ def test_backup_under_writes_restores_every_job_and_result(kind, tmp_path):
         # the restored database serves them: one result through the API, as stored in the source
         key = next(k for k in finished_before if before["jobs"][k]["status"] == "succeeded")
         with TestClient(create_app(Settings(database_url=dbs.target, broker_url=redis_url))) as restored_api:
-            assert restored_api.get(f"/v1/jobs/{key[0]}/result").json() == client.get(f"/v1/jobs/{key[0]}/result").json()
+            url = f"/v1/jobs/{key[0]}/result"
+            assert restored_api.get(url).json() == client.get(url).json()
             restored_api.app.state.db.dispose()
 
         with pytest.raises(BackupError, match=r"not empty .*--force"):  # in process: the command's message
