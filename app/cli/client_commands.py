@@ -184,9 +184,16 @@ def cmd_usage(args) -> int:
 
 def cmd_result(args) -> int:
     client = _client(args)
-    text = client.result_csv(args.id, args.csv) if args.csv else json.dumps(client.result(args.id), indent=2)
+    result = None if args.csv else client.result(args.id)
+    text = client.result_csv(args.id, args.csv) if args.csv else json.dumps(result, indent=2)
     if args.out:
         Path(args.out).write_text(text)
+        if result is not None:  # stdout is free: what the answer says, as `wait` prints it
+            from app.service.summary import headlines
+
+            job = client.job(args.id)
+            for line in headlines(job["kind"], result, job.get("params")):
+                print(f"= {line['text']}")
     else:
         sys.stdout.write(text if text.endswith("\n") else text + "\n")
     return 0
