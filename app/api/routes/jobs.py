@@ -9,7 +9,7 @@ from typing import Annotated, Literal
 from fastapi import APIRouter, Body, Header, HTTPException, Query, Request, Response
 from fastapi.responses import JSONResponse
 
-from app.service import jobs, quota, retention
+from app.service import job_memory, jobs, quota, retention
 from app.api.access import PrincipalDep, not_found, visible_job
 from app.api.deps import DatabaseDep
 from app.kinds import KINDS, PRESETS
@@ -43,6 +43,7 @@ def _job_response(body: bytes, *, status_code: int = 200, headers: dict | None =
                               "headers": {"Location": {"description": "/v1/jobs/{id} of the new job",
                                                        "schema": {"type": "string"}}}},
                         422: {"model": ValidationErrorBody, "description": "Invalid parameters (the message names the field and the rule), "
+                                              "a job estimated past the memory cap (TRAJLAB_JOB_MEMORY_MB), "
                                               "or an Idempotency-Key reused for a different request"},
                         429: {"description": "Over the owner's quota of queued/running jobs or estimated cost; "
                                               "`Retry-After` says when to try again"},
@@ -58,6 +59,10 @@ def submit_job(
     overrides = submission.params.model_dump(exclude_unset=True) if submission.params is not None else None
     preset_params = PRESETS[submission.preset].params if submission.preset else None
     params = resolve_params(spec, preset_params, overrides)
+    try:  # a job that cannot fit under the memory cap, refused before it is queued
+        job_memory.check(submission.kind, params, settings)
+    except job_memory.OverMemoryCap as exc:
+        raise HTTPException(status_code=422, detail=exc.message) from None
     check_warm_starts(db, kind=submission.kind, params=params, principal=principal)
     request_hash = None
     if idempotency_key is not None:

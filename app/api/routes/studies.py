@@ -11,7 +11,7 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import PlainTextResponse
 from pydantic import BaseModel, Field, model_validator
 
-from app.service import quota, retention, studies
+from app.service import job_memory, quota, retention, studies
 from app.api.access import Principal, PrincipalDep
 from app.service.recovery import publish_or_defer
 from app.api.deps import CeleryDep, DatabaseDep, SettingsDep
@@ -154,6 +154,10 @@ def submit_study(body: Annotated[StudySubmission, Body(openapi_examples={
         except RequestValidationError as exc:
             msg = "; ".join(f"{'.'.join(map(str, e['loc'][2:]))}: {e['msg']}" for e in exc.errors())
             raise HTTPException(status_code=422, detail=f"point {p.index} ({p.values}): {msg}") from None
+        try:
+            job_memory.check(spec.kind, p.params, settings)
+        except job_memory.OverMemoryCap as exc:
+            raise HTTPException(status_code=422, detail=f"point {p.index} ({p.values}): {exc.message}") from None
     # A study is as much work as its points: an independent one queues all of them at once, a
     # continuation one runs one at a time, so it is charged its dearest point.
     costs = [quota.estimate_cost(spec.kind, p.params) for p in points]
