@@ -1,0 +1,158 @@
+"""Issue 27 item 6 on servers of the test's own: a Redis that refuses writes, and a recovery loop that dies.
+
+* Redis reaches ``maxmemory`` during a burst with deliveries in flight, under ``noeviction`` and under
+  ``allkeys-lru`` (which evicts the queues and the unacknowledged set as well), with the worker
+  started as the README starts one by hand (``trajlab worker``, no outer supervisor): the worker lives
+  through it, no accepted job is lost, every one is terminal within the stated time once the limit is
+  raised, and ``/readyz`` is 503 naming the broker while it lasts.
+* The holder of the recovery lease (a ``trajlab recover``) is SIGKILLed during a PostgreSQL outage
+  and never restarted: the job whose result could not be stored is re-run under the lease the worker
+  takes over, and ends succeeded; ``/readyz`` names the stale recovery heartbeat while nobody holds the
+  lease.  The figures are printed (``pytest -s``).
+"""
+from __future__ import annotations
+
+import os
+import signal
+import time
+
+import psycopg
+import pytest
+import redis as redis_lib
+
+from tests.faults.conftest import QUICK, Stack, report
+from tests.faults.servers import PostgresServer, RedisServer
+
+pytestmark = [pytest.mark.integration, pytest.mark.faults]
+
+LEASE_S = 4.0  # TRAJLAB_RECOVERY_LEASE_S here: a dead holder is replaced within about 4/3 of it
+SLOW = {"kind": "intercept", "preset": "long-range-intercept",  # about a tenth of a second each
+        "params": {"methods": ["impulsive"], "scan": {"step_s": 2.0}}}
+LONG = {"kind": "intercept", "preset": "long-range-intercept",  # a few seconds: running when the database stops
+        "params": {"methods": ["impulsive"], "scan": {"step_s": 0.05}}}
+
+
+@pytest.fixture
+def wstack(tmp_path):
+    pg = PostgresServer().start()
+    redis = RedisServer(tmp_path).start()
+    s = Stack(pg, redis, tmp_path, overrides={"TRAJLAB_RECOVERY_LEASE_S": str(LEASE_S), "TRAJLAB_STALE_AFTER_S": "5"})
+    try:
+        yield s
+    finally:
+        s.close()
+        redis.kill()
+        pg.destroy()
+
+
+def _wait(predicate, timeout: float, what: str):
+    deadline = time.monotonic() + timeout
+    while not (value := predicate()):
+        assert time.monotonic() < deadline, f"{what} did not happen within {timeout} s"
+        time.sleep(0.2)
+    return value
+
+
+def _lease(stack: Stack) -> tuple[str | None, float | None]:
+    with psycopg.connect(stack.pg.url.replace("+psycopg", ""), connect_timeout=3) as conn:
+        return conn.execute("SELECT holder, extract(epoch FROM clock_timestamp() - renewed_at) FROM leases "
+                            "WHERE name = 'recovery'").fetchone()
+
+
+def test_redis_full_during_a_burst_with_work_in_flight(wstack):
+    stack = wstack
+    stack.start_worker(concurrency=1)  # `trajlab worker`: two pools, one of them reserved for quick jobs
+    r = redis_lib.Redis.from_url(stack.redis.url)
+    warm = [stack.submit(SLOW).json()["id"] for _ in range(2)]  # both pools past their first job's compiles
+    stack.wait_final(warm, timeout=240)
+    for policy in ("noeviction", "allkeys-lru"):
+        accepted = [stack.submit(SLOW).json()["id"] for _ in range(24)]  # a backlog the worker is taking
+        _wait(lambda: any(j["status"] == "running" for j in stack.statuses(accepted).values()), 180, "a delivery")
+        evicted_before = r.info("stats")["evicted_keys"]
+        r.config_set("maxmemory-policy", policy)
+        # reached now, and it stays so while the worker drains what it can: below what Redis held at its
+        # start, with no data, so neither the deliveries nor the evictions bring it back under the limit
+        r.config_set("maxmemory", str(r.info("memory")["used_memory_startup"]))
+        codes, readyz = [], []
+        end = time.monotonic() + 5.0
+        while time.monotonic() < end:
+            resp = stack.submit(SLOW)
+            codes.append(resp.status_code)
+            if resp.status_code == 202:
+                accepted.append(resp.json()["id"])
+            if len(codes) % 20 == 0:
+                readyz.append(stack.client.get("/readyz"))
+            time.sleep(0.02)
+        assert stack.procs["worker"].poll() is None, "trajlab worker died while Redis was full"
+        evicted = r.info("stats")["evicted_keys"] - evicted_before
+        r.config_set("maxmemory", "0")  # memory freed
+        freed = time.monotonic()
+        jobs, _ = stack.wait_final(accepted, timeout=240)
+        terminal_s = time.monotonic() - freed
+        ready_again = _wait(lambda: stack.client.get("/readyz").status_code == 200 or None, 30, "/readyz 200")
+        lost = [j for j in accepted if jobs.get(j, {}).get("status") != "succeeded"]
+        refused_503 = [x for x in readyz if x.status_code == 503 and x.json()["broker"].startswith("refuses writes: OOM")]
+        report(f"redis-maxmemory-{policy}", accepted=len(accepted), during_fault=len(codes), lost=len(lost),
+               evicted_keys=evicted, readyz_503_broker=f"{len(refused_503)}/{len(readyz)}", terminal_s=terminal_s)
+        assert set(codes) == {202}, sorted(set(codes))  # stored, unpublished: the re-publisher sends them later
+        assert not lost, [jobs.get(j) for j in lost[:3]]
+        assert terminal_s < 120
+        assert readyz and len(refused_503) == len(readyz), [x.json() for x in readyz]
+        assert ready_again
+        if policy == "allkeys-lru":
+            assert evicted > 0  # the queues and the records of deliveries went too: the jobs table brought them back
+    log = (stack.tmp / "worker.log").read_text(errors="replace")
+    assert "broker refused to record a delivery (OOM" in log  # deliveries were in flight when Redis filled
+    assert "Unrecoverable error" not in log and "starting it again" not in log  # no pool died or was restarted
+    assert stack.procs["worker"].poll() is None
+
+
+def test_recovery_holder_killed_during_a_postgresql_outage(wstack):
+    stack = wstack
+    stack.start_recovery()
+    recover_pid = stack.procs["recover"].pid
+    _wait(lambda: (_lease(stack)[0] or "").split(":")[1:2] == [str(recover_pid)], 60, "trajlab recover holding")
+    stack.start_worker(concurrency=1)  # its main processes are the other candidates
+    warm = stack.submit(QUICK).json()["id"]
+    stack.wait_final([warm], timeout=240)
+    job = stack.submit(LONG).json()["id"]
+    _wait(lambda: stack.statuses([job])[job]["status"] == "running", 60, "the job running")
+    time.sleep(0.5)
+    stack.pg.stop()
+    stopped = time.monotonic()
+    os.killpg(stack.procs.pop("recover").pid, signal.SIGKILL)  # the lease holder, never restarted
+    log = stack.tmp / "worker.log"
+    _wait(lambda: "result not stored, database unreachable" in log.read_text(errors="replace"), 90,
+          "the finished job's store given up")
+    outage_s = time.monotonic() - stopped
+    stack.pg.start()
+    back = time.monotonic()
+    stale = []
+    while (holder := _safe_lease(stack)) is None or holder.split(":")[1] == str(recover_pid):
+        body = stack.client.get("/readyz").json()
+        if body.get("recovery", "").startswith("heartbeat stale"):
+            stale.append(body["recovery"])
+        assert time.monotonic() - back < 60, "no worker took the recovery lease over"
+        time.sleep(0.2)
+    takeover_s = time.monotonic() - back
+    done, _ = stack.wait_final([job], timeout=120)
+    terminal_s = time.monotonic() - back
+    assert done[job]["status"] == "succeeded" and done[job]["attempts"] >= 2, done[job]  # re-run by the new holder
+    # every holder dead: the heartbeat goes stale and /readyz says so
+    stack.kill("worker")
+    killed = time.monotonic()
+    body = _wait(lambda: (b := stack.client.get("/readyz").json()).get("recovery", "").startswith("heartbeat stale")
+                 and b, 60, "/readyz naming the stale recovery heartbeat")
+    stale_s = time.monotonic() - killed
+    report("recovery-holder-killed-in-pg-outage", outage_s=outage_s, takeover_after_pg_back_s=takeover_s,
+           job_terminal_after_pg_back_s=terminal_s, readyz_stale_seen_during_takeover=len(stale),
+           readyz_stale_after_all_killed_s=stale_s, readyz=body["recovery"])
+    assert takeover_s < 4 * LEASE_S
+    assert stale_s < 3 * LEASE_S
+
+
+def _safe_lease(stack: Stack) -> str | None:
+    try:
+        return _lease(stack)[0]
+    except psycopg.OperationalError:
+        return None
