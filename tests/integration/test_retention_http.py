@@ -166,6 +166,8 @@ def test_deleting_a_study_deletes_its_points(owners):
         points = list(s.scalars(select(Job.id).where(Job.study_id == study["id"])))
     assert len(points) == 3
     assert c.delete(f"/v1/studies/{study['id']}", headers=owners.h("bob")).status_code == 404
+    point = c.delete(f"/v1/jobs/{points[0]}", headers=owners.h("carol"))  # a study goes whole
+    assert point.status_code == 409 and f"DELETE /v1/studies/{study['id']}" in point.json()["detail"]
     assert _rows(owners.db, points)[0] == 3
     assert c.delete(f"/v1/studies/{study['id']}", headers=owners.h("carol")).status_code == 204
     assert c.get(f"/v1/studies/{study['id']}", headers=owners.h("carol")).status_code == 404

@@ -147,11 +147,16 @@ def get_result(job_id: str, db: DatabaseDep, principal: PrincipalDep,
 @router.delete("/{job_id}", status_code=204, response_class=Response,
                responses={204: {"description": "Deleted: the job, its result and its cached files are gone; "
                                                "the job is 404 from now on"},
-                          404: {"model": ErrorBody, "description": "Unknown job (or another owner's)"}})
+                          404: {"model": ErrorBody, "description": "Unknown job (or another owner's)"},
+                          409: {"model": ErrorBody, "description": "A point of a trade study: a study is deleted "
+                                                                   "whole (`DELETE /v1/studies/{id}`)"}})
 def delete_job(job_id: str, db: DatabaseDep, principal: PrincipalDep) -> Response:
     """Delete a job with its result, by its owner or an admin. A queued or running job is cancelled
     first (its worker stops at the next heartbeat and stores nothing)."""
-    visible_job(db, job_id, principal)
+    job = visible_job(db, job_id, principal)
+    if job.study_id is not None:  # a study missing a point would wait for it for ever
+        raise HTTPException(status_code=409, detail=f"job {job_id} is a point of study {job.study_id}; delete the "
+                                                    f"study with its points (DELETE /v1/studies/{job.study_id})")
     if not retention.delete_job(db, job_id):
         raise not_found(job_id)
     forget([job_id])
