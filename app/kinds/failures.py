@@ -24,6 +24,8 @@ WHAT = {
     "not_robust": "The robust design did not keep the heating limit in the share of Monte Carlo samples the "
                   "confirmation accepts.",
     "time_limit": "The job ran out of its time limit before the solver finished.",
+    "resource_limit": "The job needed more memory than one job may hold (TRAJLAB_JOB_MEMORY_MB); it was "
+                      "stopped, and is not retried.",
     "worker_lost": "The worker running the job stopped (restart or crash) more often than the retry budget allows.",
     "invalid_input": "A field validated but names something unusable when the job runs (e.g. a warm start "
                      "from a job that cannot serve as one).",
@@ -68,6 +70,11 @@ ADVICE = {
     "time_limit": [
         "Make the problem smaller (fewer intervals, samples or generations) or raise the kind's time limit "
         "(TRAJLAB_TIME_LIMIT_<KIND>_S, an operator setting).",
+    ],
+    "resource_limit": [
+        "Make the problem smaller: fewer grid intervals or substeps (the memory grows with them); the message "
+        "gives the cap and the memory reached.",
+        "Or ask the operator for a larger TRAJLAB_JOB_MEMORY_MB (fewer jobs then run at once on a worker).",
     ],
     "worker_lost": ["Re-run the job; if it happens again, tell the operator (the worker's logs say why)."],
     "invalid_input": ["Fix the field the message names and submit again."],
