@@ -69,3 +69,49 @@ def test_taken_over_once_expired_and_given_up_on_release(dbs):
 def test_a_name_without_a_row_is_made_on_first_take(dbs):
     assert lease.acquire(dbs[0], "other-duty", "a", length_s=30)
     assert not lease.acquire(dbs[1], "other-duty", "b", length_s=30)
+
+
+def test_recovery_loops_pass_only_while_they_hold_the_lease(tmp_path, redis_url):
+    """Two recovery loops (two processes' worth) on one database: one passes, the other waits; when the
+    holder stops cleanly the other takes over within a renewal period."""
+    from app.runtime.settings import Settings
+    from app.service.recovery import Recovery
+
+    url = f"sqlite:///{tmp_path / 'loops.db'}"
+    upgrade(url)
+    settings = Settings(database_url=url, broker_url=redis_url, reaper_interval_s=0.2, recovery_lease_s=1.5)
+
+    class Counting(Recovery):
+        passes = 0
+
+        def tick(self) -> dict:
+            self.passes += 1
+            return {}
+
+    loops = [Counting(settings, Database(url)) for _ in range(2)]
+    threads = [loop.start_thread() for loop in loops]
+    try:
+        deadline = time.monotonic() + 10
+        while sum(loop.holding for loop in loops) != 1:
+            assert time.monotonic() < deadline
+            time.sleep(0.05)
+        time.sleep(1.5)
+        holder, other = loops if loops[0].holding else loops[::-1]
+        assert holder.passes >= 3 and other.passes == 0 and not other.holding
+        assert lease.state(holder.db, lease.RECOVERY).holder == holder.holder
+        holder.stop()  # a clean stop gives the lease up
+        threads[loops.index(holder)].join(timeout=10)
+        stopped = time.monotonic()
+        while not other.holding:
+            assert time.monotonic() - stopped < 2, "the other loop did not take the lease over"
+            time.sleep(0.02)
+        passes = other.passes
+        time.sleep(0.6)
+        assert other.passes > passes
+    finally:
+        for loop in loops:
+            loop.stop()
+        for thread in threads:
+            thread.join(timeout=10)
+        for loop in loops:
+            loop.db.dispose()
