@@ -2,6 +2,7 @@
 worker, stored result with one block per phase and the stage drop honoured, plots and CSV of the
 phases, a warm start from the stored phases, and the 422s of phases before anything is stored."""
 import copy
+import time
 
 import pytest
 
@@ -92,3 +93,23 @@ def test_the_console_compares_two_staged_jobs(service, staged):
     assert service.result(other["id"])["objective"]["value"] < service.result(staged["id"])["objective"]["value"]
     png = service.client.get("/console/compare.png", params={"ids": f"{staged['id']},{other['id']}"})
     assert png.status_code == 200 and png.content[:4] == b"\x89PNG"
+
+
+def test_a_study_sweeps_a_phase_bound_by_the_phase_name(service):
+    # the coast cut short at t = 300 s (before the apogee at 569.7 s) reaches less height; 2000 s: the apogee
+    r = service.client.post("/v1/studies", json={
+        "kind": "ocp", "preset": "two-stage-ascent", "mode": "independent",
+        "sweeps": [{"path": "phases.coast.time.final_upper", "values": [300.0, 2000.0]}]})
+    assert r.status_code == 202, r.text
+    study_id = r.json()["id"]
+    deadline = time.monotonic() + 300
+    while (body := service.client.get(f"/v1/studies/{study_id}").json())["status"] == "running":
+        assert time.monotonic() < deadline, body
+        time.sleep(0.5)
+    assert body["status"] == "finished", body
+    rows = service.client.get(f"/v1/studies/{study_id}/result").json()["rows"]
+    assert [row["status"] for row in rows] == ["succeeded"] * 2, rows
+    short, full = (service.result(row["job_id"]) for row in rows)
+    assert short["phases"][2]["tf"] == pytest.approx(300.0, abs=1e-4)   # IPOPT relaxes bounds by 1e-8 (relative)
+    assert short["objective"]["value"] < full["objective"]["value"]
+    assert full["objective"]["value"] == pytest.approx(CASES["two-stage-ascent"]["optimum"], abs=0.5)
