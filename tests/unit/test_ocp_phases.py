@@ -275,3 +275,31 @@ def test_path_limits_held_between_the_nodes_in_every_phase():
         assert p["verification"]["path"]["x_limit"]["held"]
     # a conservative bound on a coarse grid whose corners (t = 1/3, 2/3) fall between nodes: above 4
     assert 4.0 <= sol.objective <= 4.01
+
+
+def test_a_parameter_shared_by_phases_on_mixed_transcriptions():
+    # the brachistochrone split where x reaches a parameter xs (free): shooting above, LGL below; the
+    # split is free, so the minimum time is the single phase's
+    base = PRESETS["brachistochrone"]["params"]
+
+    def phase(name, first, method, n):
+        ends = {"x": 0.0, "y": 10.0, "v": 0.0} if first else {"x": 10.0, "y": 5.0}
+        return {"name": name,
+                "states": [{"name": s, **({"initial" if first else "final": ends[s]} if s in ends else {}),
+                            "scale": 10.0, **({"lower": 0.0} if s == "v" else {})} for s in ("x", "y", "v")],
+                "controls": [{"name": "theta", "lower": 0.0, "upper": math.pi}],
+                "time": {"final_upper": 10.0, **({"initial": 0.0} if first else {})},
+                "dynamics": base["dynamics"],
+                "boundary": [{"expr": "final(x) - xs", "lower": 0.0, "upper": 0.0}] if first else [],
+                "transcription": {"method": method, "intervals": n},
+                "guess": {"tf": 1.0 if first else 1.8, "states": {"v": [0.0, 7.0] if first else [7.0, 9.9]},
+                          "controls": {"theta": [0.1, 1.0] if first else [1.0, 1.75]}}}
+
+    sol = solve(parse_problem({
+        "constants": {"g": 9.80665}, "parameters": [{"name": "xs", "lower": 1.0, "upper": 9.0, "guess": 4.0}],
+        "phases": [phase("upper", True, "multiple_shooting", 25), phase("lower", False, "lgl", 10)],
+        "objective": {"sense": "minimize", "expr": 'tf("lower")'}}))
+    assert sol.status.outcome is Outcome.OPTIMAL, sol.status.message
+    assert sol.objective == pytest.approx(1.8016, abs=1e-4)
+    assert sol.phases[0]["final"]["x"] == pytest.approx(sol.parameters["xs"], abs=1e-8)
+    assert sol.phases[1]["solver"]["method"] == "lgl" and sol.verification["agrees"]
