@@ -51,10 +51,11 @@ def test_a_study_with_a_point_past_the_cap_is_a_422_naming_the_point(capped):
     assert "point 1" in r.json()["detail"] and "TRAJLAB_JOB_MEMORY_MB" in r.json()["detail"]
 
 
-def test_no_cap_refuses_nothing(tmp_path):
-    with _client(tmp_path, 0) as c:
-        r = c.post("/v1/jobs", json={"kind": "robust_reentry", "preset": "robust-max-crossrange", "params": ROBUST_1000})
-        assert r.status_code == 202, r.text
+def test_no_cap_refuses_nothing():
+    robust = {**PRESETS["robust-max-crossrange"].params, **ROBUST_1000}
+    job_memory.check("robust_reentry", robust, Settings(database_url="sqlite://", job_memory_mb=0))
+    with pytest.raises(job_memory.OverMemoryCap):
+        job_memory.check("robust_reentry", robust, Settings(database_url="sqlite://", job_memory_mb=400))
 
 
 def test_the_estimate_is_under_what_was_measured_and_grows_with_the_grid():
