@@ -110,7 +110,8 @@ def test_no_key_and_a_revoked_key_are_401(secure):
 def _job_routes(app) -> list[tuple[str, str]]:
     """Every documented route that addresses one job (get, result, cancel, events, and any added
     later, e.g. plots and reports), plus the console's per-job numbers."""
-    found = [("GET", "/console/jobs/{job_id}/numbers")]
+    found = [("GET", "/console/jobs/{job_id}/numbers"), ("GET", "/console/jobs/{job_id}/summary"),
+             ("GET", "/console/jobs/{job_id}/last-iterate/{name}.png")]
     for path, ops in app.openapi()["paths"].items():
         if "{job_id}" in path:
             found += [(method.upper(), path) for method in ops if method in ("get", "post", "put", "delete")]
@@ -137,6 +138,10 @@ def test_owners_are_isolated_over_http(secure):
             continue
         # the owner sees it, except a file this job does not have (an OEM needs a finite-thrust trajectory)
         assert mine.status_code != 404 or path.count("{") > 1 or path.endswith(".oem"), (method, path)
+    # the job list's headline column names only the caller's jobs
+    assert secure.client.get("/console/headlines", params={"ids": job["id"]}, headers=secure.h("bob")).json() == {}
+    assert job["id"] in secure.client.get("/console/headlines", params={"ids": job["id"]},
+                                          headers=secure.h("alice")).json()
     # Bob's cancel changed nothing; listings hold only the caller's jobs; the admin sees them all.
     assert secure.client.get(f"/v1/jobs/{job['id']}", headers=secure.h("alice")).json()["status"] == "succeeded"
     bob_job = secure.submit("bob", QUICK).json()
