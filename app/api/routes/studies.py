@@ -253,7 +253,7 @@ def render_trade_curve(study, rows: list[dict], fmt: str) -> bytes:
 
     x_name = next(iter(rows[0])) if rows else "value"
     x_name = [k for k in rows[0] if k != "index"][0] if rows else x_name
-    skip = {"index", x_name, "status", "job_id", "warm_start_from", "error_code"}
+    skip = {"index", x_name, "status", "job_id", "warm_start_from", "error_code", "jobs"}  # jobs: tries per point, not a result
     numeric = [k for k in dict.fromkeys(k for r in rows for k in r)
                if k not in skip and all(isinstance(r.get(k), (int, float, type(None))) for r in rows)
                and any(isinstance(r.get(k), (int, float)) for r in rows)][:4]
