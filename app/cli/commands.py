@@ -112,7 +112,8 @@ def _after_redis_restart(embedded, data_dir: Path, recovery) -> None:
 
 
 def cmd_recover(args: argparse.Namespace) -> int:
-    """The recovery loop (reaper, re-publisher, studies) as its own process: one per deployment."""
+    """The recovery loop (reaper, re-publisher, studies, retention) as a process of its own: an optional extra
+    candidate for the recovery lease beside every worker (app.service.recovery), one that runs no jobs."""
     from app.service.recovery import Recovery
     from app.runtime.settings import get_settings
 
@@ -200,7 +201,8 @@ def main(argv: list[str] | None = None) -> int:
                         "TRAJLAB_WORKER_CONCURRENCY for heavy and quick ones; jobs or heavy: one pool on that queue")
     p.add_argument("--loglevel", default="WARNING", help="Celery's log level (INFO: a line per delivery)")
     p.set_defaults(fn=cmd_worker)
-    p = sub.add_parser("recover", help="the recovery loop: reaper and re-publisher (one per deployment)")
+    p = sub.add_parser("recover", help="the recovery loop (reaper, re-publisher) as its own process: optional, every "
+                                       "worker is a candidate for the recovery lease too")
     p.set_defaults(fn=cmd_recover)
     p = sub.add_parser("migrate", help="alembic upgrade head on TRAJLAB_DATABASE_URL")
     p.set_defaults(fn=cmd_migrate)
