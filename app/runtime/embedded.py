@@ -147,17 +147,25 @@ def redis_command(data_dir: Path) -> list[str]:
 
 
 def redis_shutdown(socket_path: Path, *, timeout: float = 10.0) -> bool:
-    """``SHUTDOWN SAVE`` over the unix socket: the dump is written, the server exits."""
+    """``SHUTDOWN SAVE`` over the unix socket: the dump is written, the server exits.  If the dump cannot
+    be written (a full data directory), ``SHUTDOWN NOSAVE``: Redis refuses to stop when its save fails,
+    and what the dump would have held the recovery loop re-publishes from the database at the next start."""
     import redis
 
-    try:
-        redis.Redis(unix_socket_path=str(socket_path), socket_timeout=timeout).shutdown(save=True)
-    except redis.exceptions.ConnectionError:
-        return True  # the server closes the connection as it exits
-    except Exception:
-        log.warning("SHUTDOWN SAVE failed on %s", socket_path, exc_info=True)
-        return False
-    return True
+    client = redis.Redis(unix_socket_path=str(socket_path), socket_timeout=timeout)
+    for save in (True, False):
+        try:
+            client.shutdown(save=save, nosave=not save)
+        except redis.exceptions.ConnectionError:
+            return True  # the server closes the connection as it exits
+        except Exception as exc:
+            if save:
+                log.warning("SHUTDOWN SAVE failed on %s (%s); stopping Redis without its dump", socket_path, exc)
+                continue
+            log.warning("SHUTDOWN NOSAVE failed on %s", socket_path, exc_info=True)
+            return False
+        return True
+    return False
 
 
 def stop_leftover_redis(data_dir: Path) -> None:

@@ -51,3 +51,28 @@ def test_a_real_child_that_ran_healthy_is_restarted_without_the_loops_wait(tmp_p
 def test_embedded_redis_keeps_accepting_writes_when_a_dump_fails(tmp_path):
     cmd = redis_command(tmp_path)
     assert cmd[cmd.index("--stop-writes-on-bgsave-error") + 1] == "no"
+
+
+def test_embedded_redis_stops_when_its_dump_cannot_be_written(tmp_path):
+    import os
+    import subprocess
+
+    import redis
+
+    from app.runtime.embedded import redis_shutdown, wait_for_socket
+
+    proc = subprocess.Popen(redis_command(tmp_path), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        wait_for_socket(tmp_path / "redis.socket")
+        client = redis.Redis(unix_socket_path=str(tmp_path / "redis.socket"))
+        client.set("k", "v")
+        gone = tmp_path / "gone"
+        gone.mkdir()
+        client.config_set("dir", str(gone))
+        os.rmdir(gone)  # the dump's directory vanishes: SHUTDOWN SAVE fails, as on a full disk
+        assert redis_shutdown(tmp_path / "redis.socket", timeout=5)
+        assert proc.wait(timeout=10) is not None
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
