@@ -182,7 +182,8 @@ def _solve_once(mp: MultiPhaseProblem, initial_guess, on_progress, should_stop, 
                     f"links: {len(mp.links)} stated, {len(mp.time_links)} time and {len(mp.state_links)} state "
                     "continuities by default")
     verification = {"ok": all_ok, "limits_held": limits_held, "terminal_held": terminal_held, "agrees": agrees,
-                    "agreement_tolerance": AGREEMENT_TOLERANCE, "max_state_difference_scaled_overall": worst_all,
+                    "agreement_tolerance": mp.accuracy or AGREEMENT_TOLERANCE,
+                    "max_state_difference_scaled_overall": worst_all,
                     "links": _link_values(mp, phases, theta)}
     solver = {"method": "multiphase", "intervals": sum(p["solver"]["intervals"] for p in phases),
               "iterations": status.iterations, "status": status.solver_status, "outcome": status.outcome.value,
@@ -201,6 +202,7 @@ def _evaluate(mp: MultiPhaseProblem, nlp: MultiPhaseNLP, nums: list, res) -> Sim
     """Every phase of the answer ``res`` re-flown and checked (its verification, terminal values, trajectory)."""
     status = res.status
     nth = len(mp.parameters)
+    agreement = mp.accuracy or AGREEMENT_TOLERANCE     # with accuracy, the states must agree to it
     theta = res.x[:nth] * (nums[0].theta_scale if nth else 1.0)
     phases, notes, errors = [], [], []
     all_ok, limits_held, terminal_held, agrees, worst_all = True, True, True, True, 0.0
@@ -218,9 +220,9 @@ def _evaluate(mp: MultiPhaseProblem, nlp: MultiPhaseNLP, nums: list, res) -> Sim
                                    tf=att.tf, x=ver.x, u=ver.u) if ver.ok else {}
         one = solution_of(prob, b.nlp, num, att, ver, status, [])
         worst = max(ver.max_scaled_difference.values(), default=0.0)
-        ph_agrees = bool(ver.ok and worst <= AGREEMENT_TOLERANCE)
+        ph_agrees = bool(ver.ok and worst <= agreement)
         held = all(c["held"] for c in terminal.values())
-        one.verification.update(agrees=ph_agrees, agreement_tolerance=AGREEMENT_TOLERANCE, terminal=terminal,
+        one.verification.update(agrees=ph_agrees, agreement_tolerance=agreement, terminal=terminal,
                                 terminal_held=held, terminal_tolerance=TERMINAL_TOLERANCE)
         all_ok &= ver.ok
         limits_held &= ver.limits_held
@@ -232,7 +234,7 @@ def _evaluate(mp: MultiPhaseProblem, nlp: MultiPhaseNLP, nums: list, res) -> Sim
                        "trajectory": one.trajectory, "verification": one.verification, "solver": psolver})
         if not ph_agrees and ver.ok:
             notes.append(f"phase {ph.name}: the re-flown controls depart from the transcription's states by "
-                         f"{worst:.3g} (scaled), more than {AGREEMENT_TOLERANCE:g}: refine this phase's grid")
+                         f"{worst:.3g} (scaled), more than {agreement:g}: refine this phase's grid")
     return SimpleNamespace(theta=theta, phases=phases, notes=notes, errors=errors, excess=excess, all_ok=all_ok,
                            limits_held=limits_held, terminal_held=terminal_held, agrees=agrees, worst=worst_all)
 
