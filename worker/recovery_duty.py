@@ -18,7 +18,7 @@ import logging
 import os
 import threading
 
-from celery import signals
+from celery import current_app, signals
 
 from app.runtime.db import Database
 from app.runtime.settings import get_settings
@@ -35,7 +35,9 @@ def start(**_) -> None:
         return
     db = Database(settings.database_url, settings)
     os.register_at_fork(after_in_child=lambda: db.engine.dispose(close=False))
+    worker_app = current_app._get_current_object()
     recovery = Recovery(settings, db)
+    worker_app.set_current()  # Recovery's producer-only Celery app made itself the current one: the worker's is
     _running.append((recovery, recovery.start_thread()))
 
 
