@@ -303,3 +303,17 @@ def test_a_parameter_shared_by_phases_on_mixed_transcriptions():
     assert sol.objective == pytest.approx(1.8016, abs=1e-4)
     assert sol.phases[0]["final"]["x"] == pytest.approx(sol.parameters["xs"], abs=1e-8)
     assert sol.phases[1]["solver"]["method"] == "lgl" and sol.verification["agrees"]
+
+
+def test_a_time_gap_link_and_an_integrand_of_one_phase():
+    p = copy.deepcopy(PRESETS["lunar-lander-coast-burn"]["params"])
+    p["links"] = [{"expr": 't0("burn") - tf("coast")', "lower": 2.0, "upper": 2.0}]    # a 2 s ignition delay
+    p["objective"] = {"sense": "minimize", "integrand": {"burn": "T/ve"}}                 # the propellant burnt
+    problem = parse_problem(p)
+    assert problem.time_links == () and problem.phase("coast").problem.objective.integrand is None
+    sol = solve(problem)
+    assert sol.status.outcome is Outcome.OPTIMAL, sol.status.message
+    coast, burn = sol.phases
+    assert burn["t0"] - coast["tf"] == pytest.approx(2.0, abs=1e-6)
+    # the integral of the mass flow is the mass burnt: the objective and the final mass agree
+    assert sol.objective == pytest.approx(1000.0 - burn["final"]["m"], rel=1e-6)
