@@ -113,6 +113,10 @@ def test_the_reentry_tutorial_through_the_console(tab):
     assert heat.startswith("heating limit held: peak ") and "of 794,955 W/m^2" in heat, lines
     page.wait_for_function("[...document.querySelectorAll('#plots img')].filter(i => i.naturalWidth > 0).length >= 4")
     _shot(page, "console-job-reentry.png")
+    page.locator("#plots img.plot").first.click()  # a plot opens full size, a click closes it
+    assert page.is_visible("#plot-full") and page.get_attribute("#plot-full img", "src").startswith("blob:")
+    page.click("#plot-full")
+    assert not page.is_visible("#plot-full")
     page.goto(f"{url}/")  # the job list: preset and headline columns
     row = page.locator("#jobs tbody tr", has_text="tutorial").first
     page.wait_for_function("[...document.querySelectorAll('#jobs td.headline')].some(td => td.textContent.includes('deg'))")
@@ -155,3 +159,22 @@ def test_trajlab_wait_places_the_worst_defect_in_time(tab):
     assert p.returncode == 1, p.stderr
     assert "infeasible" in p.stderr and "the flight reaches latitude" in p.stderr
     assert "Where: around t = " in p.stderr and " s into the flight" in p.stderr
+
+
+def test_the_midcourse_front_table_picks_the_point_the_oem_flies(tab, service):
+    url, page = tab
+    job = service.submit("midcourse", "upper-stage-two-corrections", {"generations": 20}, label="front").json()
+    assert service.wait(job["id"])["status"] == "succeeded"
+    front = service.result(job["id"])["pareto_front"]
+    page.goto(f"{url}/jobs/{job['id']}")
+    page.wait_for_function("document.body.dataset.summary === 'shown'")
+    assert page.locator("#front-table tbody tr").count() == len(front)
+    # least delta-v first and chosen by default, as the OEM route's own default
+    best = min(range(len(front)), key=lambda i: front[i]["delta_v_mps"])
+    assert page.inner_text("#front-chosen") == str(best)
+    other = next(i for i in range(len(front)) if i != best)
+    page.check(f'#front-table input[value="{other}"]')
+    with page.expect_download() as download:
+        page.click("#front-oem")
+    oem = Path(download.value.path()).read_text()
+    assert f"OBJECT_NAME = front point {other}\n" in oem
