@@ -18,9 +18,9 @@ from app.kinds.base import (
     RunOutcome,
     outcome_from_status,
 )
+from app.kinds.ocp.headlines import headlines
 from app.kinds.ocp.params import OcpParams
 from app.kinds.ocp.phase_kind import check_warm_start, misfit, phases_cost
-from app.kinds.ocp.headlines import headlines
 from app.kinds.ocp.plots import plots
 from app.kinds.ocp.result import OcpResult, build_result
 from solvers.ocp import cases
