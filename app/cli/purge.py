@@ -12,15 +12,14 @@ import math
 import sys
 from datetime import timedelta
 
-from app.runtime.models import FINAL_STATUSES
-
 
 def add_commands(sub) -> None:
     p = sub.add_parser("purge", help="delete finished jobs (and studies) older than DAYS, with their results")
     p.add_argument("--older-than", type=float, required=True, metavar="DAYS",
                    help="finished more than this many days ago (fractions allowed: 0.5 is 12 hours)")
-    p.add_argument("--status", default=",".join(FINAL_STATUSES),
-                   help=f"comma-separated final statuses to purge (default: {','.join(FINAL_STATUSES)})")
+    # the default is resolved on call: importing the models (SQLAlchemy) here would slow every CLI command by seconds
+    p.add_argument("--status", default=None,
+                   help="comma-separated final statuses to purge (default: every final status)")
     p.add_argument("--dry-run", action="store_true", help="count what would go, delete nothing")
     p.set_defaults(fn=_purge)
 
@@ -28,12 +27,13 @@ def add_commands(sub) -> None:
 def _purge(args: argparse.Namespace) -> int:
     from app.runtime.db import get_database
     from app.runtime.settings import get_settings
+    from app.runtime.models import FINAL_STATUSES
     from app.service import retention
 
     if not (math.isfinite(args.older_than) and args.older_than >= 0):
         print("trajlab purge: --older-than must be a number of days >= 0", file=sys.stderr)
         return 2
-    statuses = [s.strip() for s in args.status.split(",") if s.strip()]
+    statuses = [s.strip() for s in (args.status or ",".join(FINAL_STATUSES)).split(",") if s.strip()]
     try:
         done = retention.purge(get_database(get_settings().database_url), older_than=timedelta(days=args.older_than),
                                statuses=statuses, dry_run=args.dry_run)
