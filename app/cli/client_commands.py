@@ -114,15 +114,31 @@ def _client(args):
     return Client(args.url)
 
 
+def _read_submission(args) -> tuple[str, str | None, dict, str | None]:
+    """(kind, preset, params, label) from the arguments and ``--file``.  The file may hold the parameters
+    alone or a whole ``POST /v1/jobs`` body (it has ``kind``), as the examples/ files do; the command line
+    wins over the body, and a kind that contradicts the body's is an error, not a silent choice."""
+    body: dict = json.loads(Path(args.params).read_text()) if args.params else {}
+    if not isinstance(body, dict):
+        raise SystemExit(f"trajlab submit: {args.params} must hold a JSON object")
+    if "kind" in body:
+        if args.kind and args.kind != body["kind"]:
+            raise SystemExit(f"trajlab submit: {args.params} is a {body['kind']!r} job, not {args.kind!r}")
+        kind, preset, label, params = body["kind"], body.get("preset"), body.get("label"), body.get("params") or {}
+    else:
+        kind, preset, label, params = args.kind, None, None, body
+    if not kind:
+        raise SystemExit("trajlab submit: name the kind (or give --file with a whole job body)")
+    return kind, args.preset or preset, params, args.label or label
+
+
 def cmd_submit(args) -> int:
-    params: dict = {}
-    if args.params:
-        params = json.loads(Path(args.params).read_text())
     from app.api.params import deep_merge
 
+    kind, preset, params, label = _read_submission(args)
     params = deep_merge(params, parse_set(args.set or []))
     client = _client(args)
-    job = client.submit(args.kind, preset=args.preset, params=params or None, label=args.label)
+    job = client.submit(kind, preset=preset, params=params or None, label=label)
     print(job["id"])
     if not args.wait:
         return 0
@@ -206,12 +222,13 @@ def add_commands(sub) -> None:
         return p
 
     p = common(sub.add_parser("submit", help="submit a job (add --wait to follow it with a progress bar)"))
-    p.add_argument("kind")
+    p.add_argument("kind", nargs="?", help="the job kind (optional when --file holds a whole job body)")
     p.add_argument("--preset")
     p.add_argument("--set", action="append", metavar="PATH=VALUE",
                    help="override one parameter, e.g. --set grid.intervals=50 (repeatable; JSON values)")
     p.add_argument("--params", "--file", dest="params", metavar="FILE",
-                   help="a JSON file of parameters, e.g. an ocp problem (--set applies on top)")
+                   help="a JSON file: the parameters (e.g. an ocp problem) or a whole job body with kind, preset, "
+                        "params, as in examples/ (--set applies on top)")
     p.add_argument("--label")
     p.add_argument("--wait", action="store_true")
     p.add_argument("--quiet", action="store_true", help="no progress output")

@@ -1,6 +1,7 @@
 """The command-line client against a live service (uvicorn on 127.0.0.1, a real worker, PostgreSQL, Redis)."""
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -68,3 +69,18 @@ def test_cancel_exits_3(live_url, service):
 def test_unreachable_service_exits_4():
     p = _trajlab(f"http://127.0.0.1:{free_port()}", "jobs")
     assert p.returncode == 4 and "cannot reach" in p.stderr
+
+
+def test_submit_file_takes_a_whole_job_body(live_url, service):
+    """examples/ hold whole ``POST /v1/jobs`` bodies; ``--file`` sends one as it is, and a kind on the command line
+    that contradicts the body is refused before anything is sent."""
+    body_file = os.path.join(os.path.dirname(__file__), "..", "..", "examples", "mars-entry.json")
+    p = _trajlab(live_url, "submit", "--file", body_file, "--label", "from-file")
+    assert p.returncode == 0, p.stderr
+    job = service.client.get(f"/v1/jobs/{p.stdout.strip()}").json()
+    assert job["kind"] == "reentry" and job["label"] == "from-file"
+    sent = json.loads(open(body_file).read())["params"]
+    assert job["params"]["planet"] == sent["planet"] == "mars"
+    assert job["params"]["initial_state"]["speed_mps"] == sent["initial_state"]["speed_mps"]
+    p = _trajlab(live_url, "submit", "ocp", "--file", body_file)
+    assert p.returncode == 1 and "is a 'reentry' job, not 'ocp'" in p.stderr
