@@ -62,8 +62,10 @@ def main(argv: list[str] | None = None) -> int:
         for name, job_id in jobs:
             page.goto(f"{args.url}/jobs/{job_id}")
             page.wait_for_function("document.body.dataset.summary === 'shown'", timeout=60_000)
-            page.wait_for_timeout(1500)  # the plots' requests
-            page.wait_for_function("[...document.querySelectorAll('img.plot')].every(i => i.complete)")
+            # every plot drawn (an <img> without its src yet counts as complete: wait for its pixels)
+            page.wait_for_function("(() => { const imgs = [...document.querySelectorAll('img.plot')]; "
+                                   "return imgs.length > 0 && imgs.every(i => i.naturalWidth > 0); })()",
+                                   timeout=120_000)
             page.screenshot(path=str(args.out / name), full_page=True)
             print(args.out / name)
         page.goto(f"{args.url}/")
