@@ -67,9 +67,16 @@ def finer(problem):
             return None
         tr = replace(tr, substeps=min(2 * tr.substeps, MAX_SUBSTEPS))
     else:
-        if tr.intervals >= MAX_LGL_SEGMENTS:
+        if tr.intervals >= MAX_LGL_SEGMENTS or (tr.boundaries is not None and 2 * tr.intervals > MAX_LGL_SEGMENTS):
             return None
-        tr = replace(tr, intervals=min(2 * tr.intervals, MAX_LGL_SEGMENTS))
+        if tr.boundaries is not None:         # a mesh given by boundaries: every interval halved
+            from solvers.transcription.refine import subdivide
+
+            nodes = None if tr.segment_nodes is None else tuple(n for n in tr.segment_nodes for _ in (0, 1))
+            tr = replace(tr, intervals=2 * tr.intervals, boundaries=subdivide(tr.boundaries, [2] * tr.intervals),
+                         segment_nodes=nodes)
+        else:
+            tr = replace(tr, intervals=min(2 * tr.intervals, MAX_LGL_SEGMENTS))
     return replace(problem, phase=replace(problem.phase, transcription=tr))
 
 
