@@ -20,7 +20,7 @@ import psycopg
 import pytest
 import redis as redis_lib
 
-from tests.faults.conftest import QUICK, Stack, report
+from tests.faults.conftest import Stack, report
 from tests.faults.servers import PostgresServer, RedisServer
 
 pytestmark = [pytest.mark.integration, pytest.mark.faults]
@@ -32,17 +32,30 @@ LONG = {"kind": "intercept", "preset": "long-range-intercept",  # a few seconds:
         "params": {"methods": ["impulsive"], "scan": {"step_s": 0.05}}}
 
 
-@pytest.fixture
-def wstack(tmp_path):
+@pytest.fixture(scope="module")
+def wstack(tmp_path_factory):
+    """One stack for both tests (its start and the worker's first compiles paid once): ``trajlab recover``
+    holding the recovery lease, then a ``trajlab worker`` past its first jobs, its main processes the
+    other candidates."""
+    tmp = tmp_path_factory.mktemp("watchdog")
     pg = PostgresServer().start()
-    redis = RedisServer(tmp_path).start()
-    s = Stack(pg, redis, tmp_path, overrides={"TRAJLAB_RECOVERY_LEASE_S": str(LEASE_S), "TRAJLAB_STALE_AFTER_S": "5"})
+    redis = RedisServer(tmp).start()
+    s = Stack(pg, redis, tmp, overrides={"TRAJLAB_RECOVERY_LEASE_S": str(LEASE_S), "TRAJLAB_STALE_AFTER_S": "5"})
     try:
+        s.start_recovery()
+        _wait(lambda: _holder_pid(s) == s.procs["recover"].pid, 60, "trajlab recover holding the lease")
+        _start_warm_worker(s)
         yield s
     finally:
         s.close()
         redis.kill()
         pg.destroy()
+
+
+def _start_warm_worker(stack: Stack) -> None:
+    stack.start_worker(concurrency=1)  # `trajlab worker`: two pools, one of them reserved for quick jobs
+    warm = [stack.submit(SLOW).json()["id"] for _ in range(2)]  # both pools past their first job's compiles
+    stack.wait_final(warm, timeout=240)
 
 
 def _wait(predicate, timeout: float, what: str):
@@ -53,6 +66,11 @@ def _wait(predicate, timeout: float, what: str):
     return value
 
 
+def _holder_pid(stack: Stack) -> int | None:
+    holder = _lease(stack)[0]
+    return int(holder.split(":")[1]) if holder else None
+
+
 def _lease(stack: Stack) -> tuple[str | None, float | None]:
     with psycopg.connect(stack.pg.url.replace("+psycopg", ""), connect_timeout=3) as conn:
         return conn.execute("SELECT holder, extract(epoch FROM clock_timestamp() - renewed_at) FROM leases "
@@ -61,13 +79,13 @@ def _lease(stack: Stack) -> tuple[str | None, float | None]:
 
 def test_redis_full_during_a_burst_with_work_in_flight(wstack):
     stack = wstack
-    stack.start_worker(concurrency=1)  # `trajlab worker`: two pools, one of them reserved for quick jobs
+    if "worker" not in stack.procs:  # the other test ends with it killed
+        _start_warm_worker(stack)
     r = redis_lib.Redis.from_url(stack.redis.url)
-    warm = [stack.submit(SLOW).json()["id"] for _ in range(2)]  # both pools past their first job's compiles
-    stack.wait_final(warm, timeout=240)
     for policy in ("noeviction", "allkeys-lru"):
         accepted = [stack.submit(SLOW).json()["id"] for _ in range(24)]  # a backlog the worker is taking
-        _wait(lambda: any(j["status"] == "running" for j in stack.statuses(accepted).values()), 180, "a delivery")
+        _wait(lambda ids=accepted: any(j["status"] == "running" for j in stack.statuses(ids).values()), 180,
+              "a delivery")
         evicted_before = r.info("stats")["evicted_keys"]
         r.config_set("maxmemory-policy", policy)
         # reached now, and it stays so while the worker drains what it can: below what Redis held at its
@@ -109,12 +127,8 @@ def test_redis_full_during_a_burst_with_work_in_flight(wstack):
 
 def test_recovery_holder_killed_during_a_postgresql_outage(wstack):
     stack = wstack
-    stack.start_recovery()
     recover_pid = stack.procs["recover"].pid
-    _wait(lambda: (_lease(stack)[0] or "").split(":")[1:2] == [str(recover_pid)], 60, "trajlab recover holding")
-    stack.start_worker(concurrency=1)  # its main processes are the other candidates
-    warm = stack.submit(QUICK).json()["id"]
-    stack.wait_final([warm], timeout=240)
+    assert _holder_pid(stack) == recover_pid  # the worker's candidates wait
     job = stack.submit(LONG).json()["id"]
     _wait(lambda: stack.statuses([job])[job]["status"] == "running", 60, "the job running")
     time.sleep(0.5)
@@ -128,7 +142,7 @@ def test_recovery_holder_killed_during_a_postgresql_outage(wstack):
     stack.pg.start()
     back = time.monotonic()
     stale = []
-    while (holder := _safe_lease(stack)) is None or holder.split(":")[1] == str(recover_pid):
+    while (holder := _safe_lease(stack)) is None or int(holder.split(":")[1]) == recover_pid:
         body = stack.client.get("/readyz").json()
         if body.get("recovery", "").startswith("heartbeat stale"):
             stale.append(body["recovery"])
