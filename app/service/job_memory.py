@@ -25,7 +25,7 @@ MARGIN = 0.9   # estimate = MARGIN x measured: 10% in the user's favour
 
 # Resident memory (MB) of each kind's preset in a fresh pool process, measured, and what one unit of size
 # adds (from grids up to the caps); the growth counts from the preset's size.
-FLOOR_MB = {"reentry": 166.0, "robust_reentry": 398.0, "ocp": 185.0, "midcourse": 320.0, "intercept": 300.0}
+FLOOR_MB = {"reentry": 167.0, "robust_reentry": 397.0, "ocp": 215.0, "midcourse": 343.0, "intercept": 356.0}
 FLOOR_SIZE = {"reentry": 100.0, "robust_reentry": 200.0, "ocp": 100.0 * 2 * 8}
 PER_UNIT_MB = {"reentry": 0.12, "robust_reentry": 0.06, "ocp": 0.0003}
 
