@@ -178,3 +178,38 @@ def test_the_midcourse_front_table_picks_the_point_the_oem_flies(tab, service):
         page.click("#front-oem")
     oem = Path(download.value.path()).read_text()
     assert f"OBJECT_NAME = front point {other}\n" in oem
+
+
+# JSON with sorted keys, in the page: the form's values and the preset's compared whatever their key order
+CANON = "(function canon(v) { return Array.isArray(v) ? '[' + v.map(canon).join(',') + ']' : v !== null && " \
+        "typeof v === 'object' ? '{' + Object.keys(v).sort().map((k) => JSON.stringify(k) + ':' + canon(v[k])).join(',') " \
+        "+ '}' : JSON.stringify(v); })"
+
+
+def test_the_schema_form_gives_back_every_presets_parameters(tab):
+    """Built from the schema and read back untouched, the form is exactly the preset's resolved parameters,
+    for every preset of every kind the form edits (ocp is a JSON document)."""
+    import json
+
+    from app.api.params import resolve_params
+    from app.kinds import KINDS, PRESETS
+
+    url, page = tab
+    for kind, spec in KINDS.items():
+        if kind == "ocp":
+            continue
+        page.goto(f"{url}/new?kind={kind}")
+        page.wait_for_selector("#params [data-path]")
+        for preset in spec.presets:
+            page.select_option("#preset", preset.name)
+            page.wait_for_function("document.querySelector('#preset-description').textContent.length > 0")
+            want = json.loads(json.dumps(resolve_params(spec, PRESETS[preset.name].params, None)))
+            read = "JSON.stringify(TrajlabForm.collect(document.querySelector('#params')))"
+            try:  # the preset's parameters fetched and the form rebuilt from them
+                page.wait_for_function(f"want => {CANON}(JSON.parse({read})) === {CANON}(want)", arg=want,
+                                       timeout=10_000)
+            except Exception:
+                pass  # the assertion below says what differs
+            got = json.loads(page.evaluate(read))
+            assert page.evaluate("TrajlabForm.check(document.querySelector('#params'))") == [], preset.name
+            assert got == want, preset.name

@@ -97,7 +97,7 @@ window.TrajlabForm = (() => {
       input.value = value === null || value === undefined ? "" : String(value);
       input.dataset.type = "string";
       input.size = 30;
-    } else if (isGrid(s) && (value === null || (Array.isArray(value) && value.every(Array.isArray)))) {
+    } else if (isGrid(s) && (value === null || (Array.isArray(value) && value.length && value.every((r) => Array.isArray(r) && r.length)))) {
       input = document.createElement("textarea");  // a table: one row a line, values separated by spaces
       input.value = value === null ? "" : gridText(value);
       input.rows = Math.min(16, Math.max(3, (value || []).length + 1));
@@ -189,8 +189,7 @@ window.TrajlabForm = (() => {
       } else if (input.dataset.type === "grid") {
         const rows = parseGrid(raw);
         const bad = rows.findIndex((r) => r.some((v) => !Number.isFinite(v)));
-        if (bad >= 0) errors.push({ path, msg: `row ${bad + 1}: not all numbers` });
-        else if (rows.some((r) => r.length !== rows[0].length)) errors.push({ path, msg: "every row needs the same number of values" });
+        if (bad >= 0) errors.push({ path, msg: `row ${bad + 1}: not all numbers` });  // shapes: the service's rules
       } else if (input.dataset.type === "json") {
         try { JSON.parse(raw); } catch (e) { errors.push({ path, msg: "not valid JSON: " + e.message }); }
       }
