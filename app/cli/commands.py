@@ -166,11 +166,8 @@ def cmd_worker(args: argparse.Namespace) -> int:
     from app.cli.pools import run_pools, worker_pools
     from app.runtime.settings import get_settings
 
-    pools = worker_pools(get_settings(), name=args.name, queues=args.queues, loglevel=args.loglevel)
-    if len(pools) == 1:
-        cmd = next(iter(pools.values()))
-        os.execv(cmd[0], cmd)
-    return run_pools(pools)
+    # supervised even as one pool (--queues jobs|heavy): a pool that dies is started again (app.cli.pools)
+    return run_pools(worker_pools(get_settings(), name=args.name, queues=args.queues, loglevel=args.loglevel))
 
 
 def cmd_migrate(args: argparse.Namespace) -> int:
