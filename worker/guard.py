@@ -51,7 +51,9 @@ from collections.abc import Callable
 log = logging.getLogger("trajlab.worker")
 
 SAMPLE_S = 0.1            # a 10 Hz sample costs about 20 us of CPU each (one read of statm)
-DATA_BACKSTOP = 2.0       # RLIMIT_DATA: this many caps above the data size at the job's start
+# RLIMIT_DATA: this many caps above the data size at the job's start.  Data grows faster than resident
+# memory (robust_reentry at 1000 intervals: VmData +1050 MB for +440 MB resident, 2.4x), so 4x.
+DATA_BACKSTOP = 4.0
 MB = 1024 * 1024
 _PAGE = os.sysconf("SC_PAGE_SIZE")
 
@@ -128,7 +130,8 @@ class JobGuard:
                 self.peak_bytes = max(self.peak_bytes, held)
                 if self.cap_bytes is not None and held > self.cap_bytes:
                     self._breach({"code": "resource_limit", "message": (
-                        f"the job reached {held / MB:.0f} MB of memory, past the cap of {self.cap_bytes / MB:.0f} MB "
+                        # rounded apart, so that the memory reached always reads above the cap
+                        f"the job reached {-(-held // MB)} MB of memory, past the cap of {self.cap_bytes // MB} MB "
                         "per job (TRAJLAB_JOB_MEMORY_MB); a smaller grid or fewer samples fit")})
             if time.monotonic() > self.deadline + self.grace_s:
                 self._breach({"code": "time_limit", "message": self.time_limit_message})
