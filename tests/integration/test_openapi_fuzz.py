@@ -38,4 +38,10 @@ def _clean_broker():
 @schema.parametrize()
 @settings(max_examples=30, deadline=None, suppress_health_check=list(HealthCheck))
 def test_api_conforms(case):
+    # /readyz's 503 is its documented answer here, not a server error: no worker runs, so no process holds the
+    # recovery lease and the heartbeat is (rightly) "never ran"; its body must still name the part.
+    if case.path == "/readyz":
+        response = case.call_and_validate(checks=[status_code_conformance])
+        assert response.status_code != 503 or "recovery" in response.text, response.text
+        return
     case.call_and_validate(checks=[not_a_server_error, status_code_conformance])
