@@ -8,6 +8,7 @@ local one), ``TRAJLAB_API_KEY`` the key.
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import sys
 from pathlib import Path
@@ -85,21 +86,24 @@ def _follow(client, job_id: str, *, quiet: bool) -> dict:
                 print(f"{d['status']:<10} {d['progress'] * 100:5.1f}%  {d['message']}", file=sys.stderr)
 
         return client.wait(job_id, on_event=line)
+    with progress_bar(job_id) as show:
+        return client.wait(job_id, on_event=lambda ev: show(
+            ev["data"]["progress"], f"{ev['data']['status']}: {ev['data']['message'][:50]}"))
+
+
+@contextlib.contextmanager
+def progress_bar(ident: str):
+    """A rich progress bar for a job or a study, yielding ``show(fraction, message)``.  The bar goes to stderr
+    so stdout stays the id and the numbers (a script can read them)."""
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    # The bar goes to stderr so stdout stays the job id and the numbers (a script can read them).
     console = Console(stderr=True, force_terminal=_force_bar() or None)
     with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>5.1f}%"),
                   TimeElapsedColumn(), TextColumn("{task.fields[message]}"), console=console,
                   transient=False) as bar:
-        task = bar.add_task(job_id[:8], total=1.0, message="")
-
-        def update(ev):
-            d = ev["data"]
-            bar.update(task, completed=d["progress"], message=f"{d['status']}: {d['message'][:50]}")
-
-        return client.wait(job_id, on_event=update)
+        task = bar.add_task(ident[:8], total=1.0, message="")
+        yield lambda fraction, message: bar.update(task, completed=fraction, message=message)
 
 
 def _force_bar() -> bool:

@@ -13,7 +13,7 @@ import json
 import sys
 from pathlib import Path
 
-from app.cli.client_commands import parse_set
+from app.cli.client_commands import parse_set, progress_bar
 
 EXIT = {"finished": 0, "cancelled": 3}
 
@@ -52,19 +52,9 @@ def _follow(client, study_id: str, *, quiet: bool, timeout: float | None = None)
                 print(f"{study['progress'] * 100:5.1f}%  {text}", file=sys.stderr)
 
         return client.wait_study(study_id, on_update=line, timeout=timeout)
-    from rich.console import Console
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-
-    console = Console(stderr=True, force_terminal=_force_bar() or None)
-    with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>5.1f}%"),
-                  TimeElapsedColumn(), TextColumn("{task.fields[message]}"), console=console,
-                  transient=False) as bar:
-        task = bar.add_task(study_id[:8], total=1.0, message="")
-
-        def update(study):
-            bar.update(task, completed=study["progress"], message=_line(study)[:60])
-
-        return client.wait_study(study_id, on_update=update, timeout=timeout)
+    with progress_bar(study_id) as show:
+        return client.wait_study(study_id, on_update=lambda study: show(study["progress"], _line(study)[:60]),
+                                 timeout=timeout)
 
 
 def _print_rows(rows: list[dict]) -> None:
