@@ -94,9 +94,7 @@ def solve_phases_refined(problem, *, solve_once, initial_guess, should_stop, **k
         st.build_time_s = sum(t.sol.status.build_time_s for t in trials)
         sol.solver.update(iterations=st.iterations, solve_time_s=st.solve_time_s, build_time_s=st.build_time_s)
     sol.solver.update(refinement=res.rounds, accuracy=accuracy, accuracy_reached=res.reached)
-    summary = (f"every phase's mesh refined to the accuracy {accuracy:g}: "
-               + " -> ".join(f"{r['intervals']} ({_err(r['max_error'])})" for r in res.rounds)
-               + " intervals over all phases (worst scaled state error)")
+    summary = one.rounds_summary("every phase's mesh", accuracy, res.rounds) + " over all phases"
     if res.reached:
         sol.notes.insert(0, summary + "; reached")
         return sol
@@ -104,7 +102,7 @@ def solve_phases_refined(problem, *, solve_once, initial_guess, should_stop, **k
     sol.notes.insert(0, summary + f"; NOT reached ({why})")
     if sol.status.outcome in (Outcome.OPTIMAL, Outcome.TERMINAL_NOT_HELD) and problem.accuracy_required:
         sol.status.outcome = Outcome.ACCURACY_NOT_REACHED
-        sol.status.message = (f"the re-flown states depart from the answer by {_err(res.best.max_error)} (scaled), "
+        sol.status.message = (f"the re-flown states depart from the answer by {one.err_words(res.best.max_error)} (scaled), "
                               f"more than the accuracy {accuracy:g}, after {len(res.rounds) - 1} refinement "
                               f"round(s) ({why}); the best round is stored; accuracy_required: false accepts it "
                               "with a note")
@@ -113,6 +111,3 @@ def solve_phases_refined(problem, *, solve_once, initial_guess, should_stop, **k
         sol.solver["message"] = sol.status.message
     return sol
 
-
-def _err(v) -> str:
-    return "n/a" if v is None or not math.isfinite(v) else f"{v:.2g}"

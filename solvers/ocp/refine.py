@@ -151,9 +151,7 @@ def solve_refined(problem, *, solve_on_grid, initial_guess, should_stop, **kw):
     best = out.best
     sol.solver["accuracy"] = problem.accuracy
     sol.solver["accuracy_reached"] = out.reached
-    summary = (f"mesh refined to the accuracy {problem.accuracy:g}: "
-               + " -> ".join(f"{r['intervals']} ({_err(r['max_error'])})" for r in out.rounds)
-               + " intervals (worst scaled state error)")
+    summary = rounds_summary("mesh", problem.accuracy, out.rounds)
     if out.reached:
         sol.notes.insert(0, summary + "; reached")
         return sol
@@ -164,7 +162,7 @@ def solve_refined(problem, *, solve_on_grid, initial_guess, should_stop, **kw):
         if sol.status.outcome is Outcome.TERMINAL_NOT_HELD:
             sol.notes.append("terminal: " + sol.status.message)
         sol.status.outcome = Outcome.ACCURACY_NOT_REACHED
-        sol.status.message = (f"the re-flown states depart from the answer by {_err(best.max_error)} (scaled), "
+        sol.status.message = (f"the re-flown states depart from the answer by {err_words(best.max_error)} (scaled), "
                               f"more than the accuracy {problem.accuracy:g}, after {len(out.rounds) - 1} "
                               f"refinement round(s) ({why}; transcription.max_refinements "
                               f"{problem.transcription.max_refinements}); the best round is stored; "
@@ -237,5 +235,12 @@ def _round_of(out) -> int:
     return out.rounds[-1]["round"]
 
 
-def _err(v) -> str:
+def rounds_summary(what: str, accuracy: float, rounds: list[dict]) -> str:
+    """The note that opens a refined answer: each round's intervals and worst scaled state error."""
+    return (f"{what} refined to the accuracy {accuracy:g}: "
+            + " -> ".join(f"{r['intervals']} ({err_words(r['max_error'])})" for r in rounds)
+            + " intervals (worst scaled state error)")
+
+
+def err_words(v) -> str:
     return "n/a" if v is None or not math.isfinite(v) else f"{v:.2g}"
