@@ -45,7 +45,9 @@ def test_the_studies_pages_show_progress_plot_and_point_jobs(service):
             assert "2302.4" in tab.inner_text("#study-rows")  # paper 003's optimum at 8080.5 s
             tab.click("#study-rows a.point-job >> nth=0")
             _until(tab, "document.querySelector('#status').textContent === 'succeeded'")
-            assert tab.evaluate("document.querySelector('#warm').hidden") is False  # a succeeded job: warm start
+            # a succeeded job offers a warm start; the page shows the status before it re-reads the job and
+            # un-hides the button, so wait for that state rather than read it at once
+            _until(tab, "document.querySelector('#warm').hidden === false")
             assert violations == [], violations
         finally:
             browser.close()
