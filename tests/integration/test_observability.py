@@ -44,8 +44,20 @@ def _wait(ops: OpsStack, job_id: str) -> dict:
     return wait_until(done, timeout=180, what=f"job {job_id} finished", interval=0.5)
 
 
+def _earlier_jobs(ops: OpsStack) -> int:
+    """How many jobs the module's other tests left (they may run first: --random-order), once all are final:
+    the counts below are read as that many plus this test's (every earlier one an intercept that succeeded)."""
+    def settled():
+        page = httpx.get(f"{ops.url}/v1/jobs", params={"limit": 200},
+                         headers={"Authorization": f"Bearer {ops.admin_key}"}, timeout=10).json()
+        assert all(job["status"] == "succeeded" for job in page["items"]), page["items"]
+        return page if all(job["status"] in ("succeeded", "failed", "cancelled") for job in page["items"]) else None
+    return wait_until(settled, timeout=180, what="the earlier jobs final", interval=0.5)["total"]
+
+
 def test_metrics_through_prometheus(ops):
     started = time.time()
+    before = _earlier_jobs(ops)
     ids = []
     for _ in range(JOBS):
         r = _submit(ops)
@@ -58,16 +70,16 @@ def test_metrics_through_prometheus(ops):
     def reads(expr: str, expected: float):
         return wait_until(lambda: ops.value(expr) == expected, timeout=30, what=f"{expr} == {expected}")
 
-    reads("sum(trajlab_jobs_submitted_total)", JOBS)
-    reads('trajlab_jobs_submitted_total{kind="intercept"}', JOBS)
-    reads('trajlab_jobs_finished_total{kind="intercept",status="succeeded"}', JOBS)
+    reads("sum(trajlab_jobs_submitted_total)", before + JOBS)
+    reads('trajlab_jobs_submitted_total{kind="intercept"}', before + JOBS)
+    reads('trajlab_jobs_finished_total{kind="intercept",status="succeeded"}', before + JOBS)
     reads('sum(trajlab_jobs_finished_total{status!="succeeded"})', 0)
-    reads('trajlab_job_duration_seconds_count{kind="intercept"}', JOBS)
-    reads('trajlab_job_queue_wait_seconds_count{kind="intercept"}', JOBS)
+    reads('trajlab_job_duration_seconds_count{kind="intercept"}', before + JOBS)
+    reads('trajlab_job_queue_wait_seconds_count{kind="intercept"}', before + JOBS)
     reads('trajlab_jobs_running{kind="intercept"}', 0)
     reads('sum(trajlab_queue_depth)', 0)
     # counted in both API processes' files and summed: every POST, whichever process took it
-    reads('sum(trajlab_http_requests_total{method="POST",route="/v1/jobs",status="202"})', JOBS)
+    reads('sum(trajlab_http_requests_total{method="POST",route="/v1/jobs",status="202"})', before + JOBS)
     wait_until(lambda: ops.value('sum(trajlab_http_request_duration_seconds_count{route="/v1/jobs/{job_id}"})'),
                timeout=30, what="the polls' latencies, by route template")
     assert ops.value("sum(trajlab_job_duration_seconds_sum)") > 0
