@@ -30,6 +30,17 @@ SKIPPED_KEYS = {"solve_time_s", "build_time_s", "time_s", "verification_time_s",
 EXTRA = {
     "reentry": [("heat-limited-warm-start", "betts-max-crossrange-heat-limited",
                  {"initial_guess": {"from_job": "betts-max-crossrange"}})],
+    # The ocp phase model (issue 34 item 2): refinement, LGL, warm starts and limit rounds, one and several phases.
+    "ocp": [("brachistochrone-lgl-accuracy", "brachistochrone",
+             {"transcription": {"method": "lgl", "intervals": 8, "nodes": 4}, "accuracy": 1e-6}),
+            ("brachistochrone-ms-accuracy", "brachistochrone", {"transcription": {"intervals": 10}, "accuracy": 1e-7}),
+            ("brachistochrone-warm", "brachistochrone",
+             {"transcription": {"intervals": 80}, "guess": {"from_job": "brachistochrone"}}),
+            ("bryson-denham-lgl", "bryson-denham",
+             {"transcription": {"method": "lgl", "intervals": 20, "nodes": 5}}),
+            ("lander-accuracy", "lunar-lander-coast-burn", {"accuracy": 1e-6}),
+            ("goddard-three-phases-accuracy", "goddard-three-phases", {"accuracy": 1e-9, "accuracy_required": False}),
+            ("two-stage-warm", "two-stage-ascent", {"guess": {"from_job": "two-stage-ascent"}})],
 }
 
 
