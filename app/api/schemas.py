@@ -9,17 +9,16 @@ from pydantic import BaseModel, Field, create_model
 
 from app.kinds import KINDS
 from app.kinds.base import KindSpec, StrictModel
+from app.kinds.failures import ERROR_CODES, WHAT
 
 JobStatus = Literal["queued", "running", "succeeded", "failed", "cancelled"]
-# invalid_input: parameters that validated but name something unusable when the job runs (a warm start
-# from a job that does not exist, has not succeeded or does not fit the problem).
-ErrorCode = Literal["infeasible", "not_converged", "limit_not_held", "terminal_not_held", "accuracy_not_reached",
-                    "not_robust", "time_limit", "worker_lost",
-                    "cancelled", "invalid_input", "internal"]
+# Every code a job can be stored with, from its one declaration (app.kinds.failures.WHAT): a code added
+# there is in the OpenAPI enum, so generated clients accept every stored job.
+ErrorCode = Literal[ERROR_CODES]  # type: ignore[valid-type]
 
 
 class JobError(BaseModel):
-    code: ErrorCode
+    code: ErrorCode = Field(description="Why, in one word: " + "; ".join(f"`{c}`: {w}" for c, w in WHAT.items()))
     message: str = Field(description="Why the job failed: the solver's own status and the worst constraint violation")
     details: dict[str, Any] | None = Field(default=None, description="Stored diagnostic (solver status, iterations, ...)")
 

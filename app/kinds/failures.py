@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import re
 
-# One sentence per code: what the code means to the user.
+# The error codes a job can be stored with, one sentence each on what the code means to the user. This is
+# the one declaration: the OpenAPI enum (app.api.schemas.ErrorCode), the store's check (app.service.jobs)
+# and ADVICE derive from or are checked against it (tests/unit/test_error_codes.py).
 WHAT = {
     "infeasible": "The problem as posed has no solution: the solver (or a proof before it) found that the "
                   "constraints cannot all hold at once.",
@@ -32,6 +34,8 @@ WHAT = {
     "internal": "A bug in trajlab: the job hit an error nobody planned for. The message names it; please report it.",
     "cancelled": "The job was cancelled on request.",
 }
+
+ERROR_CODES: tuple[str, ...] = tuple(WHAT)
 
 # What to try, per code, most useful first.
 ADVICE = {

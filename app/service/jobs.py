@@ -21,6 +21,7 @@ from typing import Callable
 from sqlalchemy import Connection, Row, Text, bindparam, cast, func, insert, or_, select, update
 from sqlalchemy.orm import Session
 
+from app.kinds.failures import ERROR_CODES
 from app.service import storage
 from app.service.broker import QUEUE_JOBS
 from app.runtime.db import Database
@@ -327,9 +328,18 @@ def heartbeat(db: Database, job_id: str, attempt: int, *, progress: float | None
         return bool(job.cancel_requested)
 
 
+def _known_code(error: dict | None) -> dict | None:
+    """``error`` with a code of the one declaration (app.kinds.failures.ERROR_CODES); a code nobody declared
+    is a bug, stored as ``internal`` naming it, so the job document always fits the OpenAPI enum."""
+    if error is None or error.get("code") in ERROR_CODES:
+        return error
+    details = {**(error.get("details") or {}), "undeclared_code": error.get("code")}
+    return {**error, "code": "internal", "details": details}
+
+
 def _finish(job: Job, status: str, *, error: dict | None, message: str) -> None:
     job.status = status
-    job.error = error
+    job.error = _known_code(error)
     job.message = message
     job.finished_at = utcnow()
     if status == "succeeded":
