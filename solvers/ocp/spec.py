@@ -91,6 +91,8 @@ class _Names:
             raise OcpInputError(path, f"'{name}' is a Python keyword and cannot be a name")
         if name in RESERVED:
             raise OcpInputError(path, f"'{name}' is reserved ({', '.join(RESERVED)})")
+        if name.startswith("_"):   # Python's own names (__class__) and the parser's helpers live there
+            raise OcpInputError(path, f"'{name}' is reserved: a name cannot begin with an underscore")
         if name in FUNCTIONS:
             raise OcpInputError(path, f"'{name}' shadows the function {name}()")
         if name in self.kinds or (name in self.tables and kind != "table"):

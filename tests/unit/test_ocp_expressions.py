@@ -178,7 +178,9 @@ def test_boundary_functions_where_allowed():
                                          ("initial", "reserved"), ("x", "duplicated name 'x'"),
                                          ("g", "duplicated name 'g'"), ("cd_tab", "duplicated"),
                                          ("lambda", "keyword"), ("1x", "not a valid name"),
-                                         ("__class__.x", "not a valid name")])
+                                         ("__class__.x", "not a valid name"),
+                                         ("__class__", "cannot begin with an underscore"),
+                                         ("_u", "cannot begin with an underscore")])
 def test_bad_names(name, reason):
     body = copy.deepcopy(BASE)
     body["controls"].append({"name": name})

@@ -126,6 +126,10 @@ def test_hostile_expressions_are_422_naming_field_and_reason_and_nothing_runs(cl
     ({"states": [{"name": "x"}, {"name": "x"}, {"name": "v"}]}, ["states", 1, "name"], "x"),
     ({"constants": {"t": 1.0, "g": 9.8}}, ["constants", "t"], "t"),
     ({"constants": {"sin": 1.0, "g": 9.8}}, ["constants", "sin"], "sin"),
+    # a leading underscore is reserved (issue 36: __class__ was accepted as a state)
+    ({"states": [{"name": "__class__"}, {"name": "y"}, {"name": "v"}]}, ["states", 0, "name"],
+     "'__class__' is reserved: a name cannot begin with an underscore"),
+    ({"constants": {"_g": 9.8}}, ["constants", "_g"], "cannot begin with an underscore"),
     ({"controls": [{"name": "theta", "lower": 2.0, "upper": 1.0}]}, ["controls", 0], "2"),
     ({"tables": {"rho": {"axes": [[0.0, 2.0, 1.0]], "values": [1.0, 2.0, 3.0]}}},
      ["tables", "rho", "axes", 0], "increasing"),
