@@ -12,6 +12,7 @@ its result in memory and retries the write.
 """
 from __future__ import annotations
 
+import contextlib
 import logging
 import socket
 import time
@@ -29,6 +30,7 @@ from app.runtime.db import Database, get_database
 from app.kinds import KINDS
 from app.kinds.base import JobCancelled, JobFailure, RunOutcome
 from app.runtime.settings import Settings, get_settings
+from solvers.transcription import jit
 from worker import fanout
 from worker.celery_app import celery_app
 from worker.context import WorkerJobContext
@@ -71,7 +73,8 @@ def execute_job(db: Database, settings: Settings, job_id: str, attempt: int, *, 
     with ctx, guard:
         try:
             params = spec.params_model.model_validate(claim.params)
-            outcome = spec.run(params, ctx)
+            with jit.expected_again() if claim.recurring else contextlib.nullcontext():
+                outcome = spec.run(params, ctx)
         except MemoryError:  # a malloc refused by the guard's RLIMIT_DATA backstop
             outcome = RunOutcome("failed", error={"code": "resource_limit", "message": (
                 f"the job ran out of memory at {guard.peak_bytes / MB:.0f} MB or more (cap "

@@ -271,6 +271,9 @@ class Claim:
     # submission to this first start (None when the job had started before: a re-run)
     queue_wait_s: float | None = None
     owner: str | None = None
+    # a preset's or a study's point: its problem structure is likely to come back, so compiling its
+    # derivatives pays (solvers.transcription.jit.expected_again)
+    recurring: bool = False
 
 
 def claim(db: Database, job_id: str, attempt: int, *, worker: str, max_attempts: int,
@@ -310,7 +313,8 @@ def claim(db: Database, job_id: str, attempt: int, *, worker: str, max_attempts:
         job.worker = worker
         job.message = f"started on {worker} (attempt {job.attempts})"
         return Claim(job.id, job.kind, dict(job.params), job.attempts, request_id=job.request_id,
-                     queue_wait_s=queue_wait_s, owner=job.owner)
+                     queue_wait_s=queue_wait_s, owner=job.owner,
+                     recurring=job.preset is not None or job.study_id is not None)
 
 
 def heartbeat(db: Database, job_id: str, attempt: int, *, progress: float | None, message: str | None) -> bool | None:

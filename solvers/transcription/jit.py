@@ -25,16 +25,36 @@ once per structure and cached by content:
 * without a C compiler on ``PATH`` (``cc``, ``gcc`` or ``clang``) every mode falls back to the
   virtual machine, silently and permanently for the process.
 
+Compiles that pay (issue 38): a compile costs 15-60 s of a core, so on a small machine (2 cores, two
+worker pools) unbounded compiles swamped the solves they were meant to speed up.  Hence:
+
+* **one compile at a time per host**: an exclusive ``fcntl.flock`` on ``compile.lock`` in the cache
+  directory, across processes (both pools, ``trajlab serve`` and ``trajlab worker`` alike); whoever gets
+  it second finds the library already there and compiles nothing (a structure is compiled once);
+* **at low priority**: the compiler runs under ``os.nice(19)``, so a solve waiting for a core wins it;
+* **only structures likely to come back** (``background`` mode): a structure is compiled when it has been
+  seen before (``TRAJLAB_JIT_SEEN`` sightings, default 2, counted per key in ``nlp_<key>.seen`` in the
+  cache directory, across processes and restarts), or when the caller says it will come back
+  (:func:`expected_again`: a preset as it stands, a study's points, a search's repeated solves).  A
+  problem posed once solves in the virtual machine and costs no compile.  ``sync`` (benchmarks)
+  compiles at once, under the same lock;
+* ``compiles.log`` in the cache directory records each compile's start and end (time, pid, key), and
+  each wait that found the library done: what the tests read, and an operator's answer to "what compiled".
+
 -Og rather than -O1: as fast here (6.4 vs 7.4 ms per Hessian) for a seventh of the compile time.
 """
 from __future__ import annotations
 
+import contextlib
+import contextvars
+import fcntl
 import hashlib
 import os
 import shutil
 import subprocess
 import tempfile
 import threading
+import time
 from pathlib import Path
 
 import casadi as ca
@@ -44,6 +64,9 @@ FLAGS = ("-Og", "-fPIC", "-shared")
 _OPTION = {"nlp_hess_l": "hess_lag", "nlp_jac_g": "jac_g"}
 _LOCK = threading.Lock()
 _PENDING: dict[str, list] = {}   # key -> done() callbacks of the solvers waiting for it
+# Set by the caller around building solvers whose structure will come back (see the docstring)
+_EXPECTED_AGAIN: contextvars.ContextVar[bool] = contextvars.ContextVar("jit_expected_again", default=False)
+LOCK_FILE, RECORDS = "compile.lock", "compiles.log"
 
 
 def mode() -> str:
@@ -120,6 +143,64 @@ def load_functions(key: str, names) -> dict | None:
         return None
 
 
+def sightings_needed() -> int:
+    try:
+        return max(1, int(os.environ.get("TRAJLAB_JIT_SEEN", "2")))
+    except ValueError:
+        return 2
+
+
+def sight(key: str) -> int:
+    """Count one sighting of the structure ``key`` (a line appended to ``nlp_<key>.seen``: O_APPEND
+    writes of one short line do not interleave between processes); the number of sightings so far."""
+    path = cache_dir() / f"nlp_{key}.seen"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "a") as f:
+        f.write(f"{os.getpid()}\n")
+    with open(path) as f:
+        return sum(1 for _ in f)
+
+
+@contextlib.contextmanager
+def expected_again():
+    """Solvers built inside this block belong to structures that will come back (a preset, a study's
+    point, a search that solves one structure many times): compiled on first sight in ``background``."""
+    token = _EXPECTED_AGAIN.set(True)
+    try:
+        yield
+    finally:
+        _EXPECTED_AGAIN.reset(token)
+
+
+def worth_compiling(key: str) -> bool:
+    """Whether a structure missing from the cache is compiled now (and its sighting counted):
+    always in ``sync``; in ``background`` when expected again or seen often enough."""
+    seen = sight(key)
+    return mode() == "sync" or _EXPECTED_AGAIN.get() or seen >= sightings_needed()
+
+
+def _record(event: str, key: str) -> None:
+    with open(cache_dir() / RECORDS, "a") as f:
+        f.write(f"{time.time():.6f} {os.getpid()} {event} {key}\n")
+
+
+@contextlib.contextmanager
+def _host_lock(directory: Path):
+    """One compile at a time on this host (every process using this cache directory): blocks until
+    the compile ahead has finished.  flock is released by the kernel if its holder dies."""
+    with open(directory / LOCK_FILE, "a") as f:
+        fcntl.flock(f, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(f, fcntl.LOCK_UN)
+
+
+def _low_priority() -> None:
+    # in the compiler's child before exec: only a system call, safe in a process with threads
+    os.nice(19)
+
+
 def build(solver: ca.Function, key: str, lock=None) -> bool:
     """Generate C for ``solver``'s Hessian and Jacobian and compile it into the cache (atomic).
     ``lock``: held while reading ``solver`` (not while compiling), so no solve runs meanwhile."""
@@ -137,6 +218,21 @@ def _compile(functions, key: str, lock=None) -> bool:
         return False
     out = library(key)
     out.parent.mkdir(parents=True, exist_ok=True)
+    with _host_lock(out.parent):
+        if out.exists():          # compiled by whoever held the lock before us: never twice
+            _record("found", key)
+            return True
+        if skipped(key):
+            return False
+        _record("start", key)
+        try:
+            return _generate_and_compile(cc, functions, key, lock)
+        finally:
+            _record("end", key)
+
+
+def _generate_and_compile(cc: str, functions, key: str, lock) -> bool:
+    out = library(key)
     with tempfile.TemporaryDirectory(dir=out.parent) as tmp:
         with lock or threading.Lock():
             gen = ca.CodeGenerator(f"nlp_{key}.c", {"with_header": False})
@@ -149,7 +245,7 @@ def _compile(functions, key: str, lock=None) -> bool:
             return False
         so = Path(tmp) / out.name
         res = subprocess.run([cc, *FLAGS, str(source), "-o", str(so), "-lm"],
-                             capture_output=True, text=True)
+                             capture_output=True, text=True, preexec_fn=_low_priority)
         if res.returncode != 0 or not so.exists():
             return False
         os.replace(so, out)       # atomic: a reader sees no library or a whole one

@@ -148,7 +148,7 @@ class NLPSolver:
         if ext is None and blocks is not None:
             ext = blocks.nlpsol_options(nlp)         # the blocks in the virtual machine
         self.solver = ca.nlpsol(name, "ipopt", nlp, {**opts, **(ext or {})})
-        if key and not self.compiled and not jit.skipped(key):
+        if key and not self.compiled and not jit.skipped(key) and jit.worth_compiling(key):
             fns = None if blocks is None else blocks.functions
             if jit.mode() == "sync":
                 if jit.build(self.solver, key) if fns is None else jit.build_functions(fns, key):

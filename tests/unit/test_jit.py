@@ -58,7 +58,8 @@ def test_without_a_compiler_it_falls_back_to_the_vm(cache, monkeypatch):
 def test_background_mode_solves_at_once_then_swaps_in_the_library(cache, monkeypatch):
     import time
     monkeypatch.setenv("TRAJLAB_JIT", "background")
-    s, first = solve(toy_nlp(scale=3.0))
+    with jit.expected_again():              # compiled on first sight (a preset, a study's point)
+        s, first = solve(toy_nlp(scale=3.0))
     assert first.status.ok                  # answered without waiting for the compiler
     deadline = time.monotonic() + 60
     while not s.compiled and time.monotonic() < deadline:
@@ -78,3 +79,60 @@ def test_code_over_the_size_cap_is_never_compiled(cache, monkeypatch):
     assert r.status.ok and not s.compiled and jit.skipped(key) and not jit.library(key).exists()
     s2, _ = solve(toy_nlp(scale=5.0))          # remembered across solvers (and processes)
     assert not s2.compiled
+
+
+def test_background_compiles_only_structures_that_come_back(cache, monkeypatch):
+    """Posed once: no compile; seen a second time (in any process: the count is on disk) or expected
+    again by the caller: compiled.  sync always compiles."""
+    monkeypatch.setenv("TRAJLAB_JIT", "background")
+    key = jit.digest(toy_nlp(scale=7.0))
+    assert not jit.worth_compiling(key)
+    assert jit.worth_compiling(key)                     # the second sighting
+    assert (cache / f"nlp_{key}.seen").read_text().count("\n") == 2
+    other = jit.digest(toy_nlp(scale=8.0))
+    with jit.expected_again():
+        assert jit.worth_compiling(other)
+    monkeypatch.setenv("TRAJLAB_JIT_SEEN", "3")
+    third = jit.digest(toy_nlp(scale=9.0))
+    assert [jit.worth_compiling(third) for _ in range(3)] == [False, False, True]
+    monkeypatch.setenv("TRAJLAB_JIT", "sync")
+    assert jit.worth_compiling(jit.digest(toy_nlp(scale=10.0)))
+
+
+# Compiles two toy structures in the order given (TRAJLAB_JIT=sync: each is built at once, under the
+# host's compile lock); run as two processes at once by the test below.
+_COMPILE_BOTH = """
+import sys
+from tests.unit.test_jit import toy_nlp
+from solvers.transcription.nlp import NLPSolver
+for scale in map(float, sys.argv[1:]):
+    assert NLPSolver(toy_nlp(scale=scale), name="toy").compiled
+"""
+
+
+@pytest.mark.skipif(jit.compiler() is None, reason="no C compiler on PATH")
+def test_two_processes_compile_one_at_a_time_and_each_structure_once(cache):
+    """Two processes want the same two structures, in opposite orders, at the same moment: the records
+    in the cache directory show one compiler at a time (every start followed by its own end before the
+    next start) and one compile per structure."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    env = {**os.environ, "TRAJLAB_JIT": "sync", "TRAJLAB_JIT_CACHE": str(cache), "PYTHONPATH": str(root)}
+    procs = [subprocess.Popen([sys.executable, "-c", _COMPILE_BOTH, *order], env=env, cwd=root)
+             for order in (["11", "12"], ["12", "11"])]
+    assert [p.wait(timeout=300) for p in procs] == [0, 0]
+    keys = {jit.digest(toy_nlp(scale=s)) for s in (11.0, 12.0)}
+    records = [line.split() for line in (cache / jit.RECORDS).read_text().splitlines()]
+    events = [(pid, event, key) for _, pid, event, key in records]
+    compiles = [e for e in events if e[1] != "found"]
+    assert [e[1] for e in compiles] == ["start", "end"] * 2           # never two at once
+    assert all(a[0] == b[0] and a[2] == b[2] for a, b in zip(compiles[::2], compiles[1::2]))
+    assert sorted(e[2] for e in compiles[::2]) == sorted(keys)        # each structure once
+    compiled_by = {key: pid for pid, _, key in compiles[::2]}
+    # a process that waited for the lock found the other's library done (one that came later loaded it)
+    assert all(compiled_by[key] != pid for pid, event, key in events if event == "found")
+    assert all(jit.library(k).exists() for k in keys)
