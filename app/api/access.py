@@ -64,19 +64,21 @@ async def _principal(request: Request,
 def _key_principal(request: Request, credentials: HTTPAuthorizationCredentials | None) -> Principal:
     if credentials is None:
         raise _unauthorized("an API key is required: Authorization: Bearer KEY")
+    # the key first: a valid key is never refused for what others sent from its address (app.api.key_attempts)
+    key = auth.authenticate(request.app.state.db, credentials.credentials)
+    if key is not None:
+        return Principal(owner=key.owner, admin=key.admin)
     attempts = key_attempts.for_app(request.app.state, request.app.state.settings)
+    # the peer, or a trusted proxy's X-Forwarded-For (TRAJLAB_TRUSTED_PROXIES, read in app.api.main)
     address = request.client.host if request.client is not None else ""
     wait_s = attempts.retry_after_s(address)
-    if wait_s is not None:  # refused before the lookup: guessing costs no database read
+    if wait_s is not None:
         AUTH_FAILURES.labels("refused").inc()
         raise HTTPException(status_code=429, headers={"Retry-After": str(wait_s)},
                             detail=f"too many failed API-key attempts from this address; retry in {wait_s} s")
-    key = auth.authenticate(request.app.state.db, credentials.credentials)
-    if key is None:
-        attempts.failed(address)
-        AUTH_FAILURES.labels("invalid").inc()
-        raise _unauthorized("unknown or revoked API key", error="invalid_token")
-    return Principal(owner=key.owner, admin=key.admin)
+    attempts.failed(address)
+    AUTH_FAILURES.labels("invalid").inc()
+    raise _unauthorized("unknown or revoked API key", error="invalid_token")
 
 
 PrincipalDep = Annotated[Principal, Depends(_principal)]

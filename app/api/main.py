@@ -65,6 +65,13 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.add_middleware(SecurityHeaders)
     # outermost: the request id and the HTTP metrics see every response, errors and gzip included
     app.add_middleware(RequestObservation)
+    if settings.trusted_proxies.strip():
+        # outside even that: the client address everything reads (the failed-key limit, the logs) is a trusted
+        # proxy's X-Forwarded-For (the rightmost address it did not add itself), never a header any client
+        # sets; `trajlab api`/`serve` switch uvicorn's own reading off, which trusts 127.0.0.1 by default
+        from uvicorn.middleware.proxy_headers import ProxyHeadersMiddleware
+
+        app.add_middleware(ProxyHeadersMiddleware, trusted_hosts=settings.trusted_proxies)
     app.state.settings = settings
     app.state.db = get_database(settings.database_url, settings)
     app.state.celery = create_publisher(settings)

@@ -80,7 +80,8 @@ def cmd_serve(args: argparse.Namespace) -> int:
               f"  API docs  http://{args.host}:{args.port}/docs\n  data      {data_dir} "
               f"(database {settings.database_url}, worker.log, redis.rdb)\n"
               f"  auth      {settings.auth}\n  stop      Ctrl-C\n", file=sys.stderr, flush=True)
-        uvicorn.run(create_app(settings), host=args.host, port=args.port, log_level="warning")
+        # proxy_headers off: the app reads X-Forwarded-For itself, from TRAJLAB_TRUSTED_PROXIES only
+        uvicorn.run(create_app(settings), host=args.host, port=args.port, log_level="warning", proxy_headers=False)
     finally:
         print("trajlab: stopping worker and broker", file=sys.stderr)
         if recovery is not None:
@@ -150,7 +151,10 @@ def cmd_api(args: argparse.Namespace) -> int:
     # uvloop and httptools (uvicorn[standard]) named, not left to "auto"; TRAJLAB_API_WORKERS processes,
     # each on a listening socket of its own (app.runtime.serving: a shared one left one process with most connections)
     options = dict(factory=True, host=args.host, port=args.port, loop="uvloop", http="httptools",
-                   workers=settings.api_workers, access_log=settings.access_log)
+                   workers=settings.api_workers, access_log=settings.access_log,
+                   # uvicorn trusts X-Forwarded-For from 127.0.0.1 by default: off, the app reads it itself
+                   # from TRAJLAB_TRUSTED_PROXIES only (app.api.main)
+                   proxy_headers=False)
     options["log_config"] = logs.dict_config(settings.log_format)  # applied in each process
     _http_metrics_dir()
     if settings.api_workers == 1:

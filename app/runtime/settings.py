@@ -146,6 +146,11 @@ class Settings(BaseSettings):
         default=10, ge=1, description="Failed API-key attempts one client address may make per "
                                       "auth_failure_window_s before it is answered 429 (app.api.key_attempts)")
     auth_failure_window_s: float = Field(default=60.0, gt=0, description="Window of auth_max_failures (s)")
+    trusted_proxies: str = Field(
+        default="", description="Addresses (IPs or CIDR networks, comma-separated; * for any) of the reverse "
+                                "proxies whose X-Forwarded-For and X-Forwarded-Proto are believed: the client "
+                                "address of the failed-key limit and the logs. Empty (default): none, the peer's "
+                                "address is the client's")
     max_body_bytes: int = Field(default=1_048_576, ge=0, description="Request body cap (413 before parsing)")
     max_queued_per_owner: int = Field(default=10, ge=1, description="Queued jobs one owner may have (429 past it)")
     max_active_per_owner: int = Field(default=20, ge=1, description="Queued + running jobs of one owner (429)")
