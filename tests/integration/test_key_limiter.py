@@ -57,10 +57,10 @@ def api_process(pg_url: str, redis_url: str, tmp_path, **env):
     environ = {**os.environ, "PYTHONPATH": str(ROOT), "TRAJLAB_DATABASE_URL": pg_url, "TRAJLAB_BROKER_URL": redis_url,
                "TRAJLAB_AUTH": "required", "TRAJLAB_API_WORKERS": "1", "TRAJLAB_AUTH_MAX_FAILURES": str(LIMIT),
                "TRAJLAB_AUTH_FAILURE_WINDOW_S": "600", **env}
-    log = open(tmp_path / f"api-{port}.log", "wb")
-    proc = subprocess.Popen([sys.executable, "-m", "app.cli.commands", "api", "--host", "127.0.0.1", "--port",
-                             str(port)], cwd=ROOT, env=environ, stdout=log, stderr=subprocess.STDOUT,
-                            start_new_session=True)
+    with open(tmp_path / f"api-{port}.log", "wb") as log:   # the child keeps its own descriptor
+        proc = subprocess.Popen([sys.executable, "-m", "app.cli.commands", "api", "--host", "127.0.0.1", "--port",
+                                 str(port)], cwd=ROOT, env=environ, stdout=log, stderr=subprocess.STDOUT,
+                                start_new_session=True)
     base = f"http://127.0.0.1:{port}"
     try:
         deadline = time.monotonic() + 90
@@ -76,7 +76,6 @@ def api_process(pg_url: str, redis_url: str, tmp_path, **env):
         yield base
     finally:
         stop_group(proc)
-        log.close()
 
 
 def status(base: str, headers: dict) -> int:
