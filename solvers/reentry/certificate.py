@@ -79,23 +79,33 @@ def certified_infeasible(problem: ReentryProblem, guess) -> ReentrySolution | No
     proofs = [b for b in bounds if b["proves_infeasible"]]
     if not proofs:
         return None
-    m = problem.intervals
-    tf, x, u = on_grid(guess, m, problem.control)
-    t = np.linspace(0.0, tf, m + 1)
-    u_nodes = control_at(t, t, u, problem.control)
     worst = max(proofs, key=lambda b: b["least"] / b["limit"])
     msg = "; ".join(f"at the {b['where']} (its altitude and speed are fixed) no admissible control gives "
                     f"{b['quantity']} below {b['least']:.6g}, against the limit {b['limit']:.6g} "
                     f"({100 * (b['least'] / b['limit'] - 1):+.1f}%)" for b in proofs)
-    status = SolveStatus(Outcome.INFEASIBLE, solver_status="pinned_end_bound",
-                         message=f"infeasible, proved before the NLP: {msg}",
-                         max_constraint_violation=worst["least"] / worst["limit"] - 1.0,
-                         details={"certificate": bounds, "stages": []})
-    value = float("nan")
-    return ReentrySolution(status=status, objective_name=problem.objective, objective_value=value,
+    return infeasible_before_the_nlp(problem, guess, solver_status="pinned_end_bound",
+                                     message=f"infeasible, proved before the NLP: {msg}",
+                                     violation=worst["least"] / worst["limit"] - 1.0,
+                                     details={"certificate": bounds}, note=f"no NLP was solved: {msg}")
+
+
+def infeasible_before_the_nlp(problem: ReentryProblem, guess, *, solver_status: str, message: str,
+                              violation: float, details: dict, note: str,
+                              stages: list | None = None) -> ReentrySolution:
+    """The ``infeasible`` solution of a problem shown infeasible before the limited NLP ran: the
+    evidence in ``details``, the arrays the initial guess on the grid (a stored result has a shape)."""
+    m = problem.intervals
+    tf, x, u = on_grid(guess, m, problem.control)
+    t = np.linspace(0.0, tf, m + 1)
+    u_nodes = control_at(t, t, u, problem.control)
+    stages = list(stages or [])
+    status = SolveStatus(Outcome.INFEASIBLE, solver_status=solver_status, message=message,
+                         iterations=sum(s.get("iterations", 0) for s in stages),
+                         solve_time_s=sum(s.get("solve_time_s", 0.0) for s in stages),
+                         max_constraint_violation=violation, details={**details, "stages": stages})
+    return ReentrySolution(status=status, objective_name=problem.objective, objective_value=float("nan"),
                            objective_unit="rad", tf_s=float(tf), t=t, x=x, u=u, u_nodes_at_t=u_nodes,
                            heat_rate=np.asarray(dyn.heat_rate(x, u_nodes, problem.vehicle, np), float),
                            verification=None,
-                           notes=[f"no NLP was solved: {msg}; the trajectory is the initial guess, not an answer"],
-                           stages=[])
-
+                           notes=[f"{note}; the trajectory is the initial guess, not an answer"],
+                           stages=stages)

@@ -35,8 +35,8 @@ from solvers.transcription.multiple_shooting import (PathConstraint, ShootingPro
 from solvers.reentry.guess import InitialGuess, linear_guess, on_grid, simulate_constant_controls
 from solvers.reentry.limits import hold_problem_limits, limit_checks, path_limits
 from solvers.reentry import terminal as term
-from solvers.reentry.certificate import certified_infeasible
-from solvers.reentry.minmax import classify_by_least_peak
+from solvers.reentry.certificate import certified_infeasible, infeasible_before_the_nlp
+from solvers.reentry.minmax import classify_by_least_peak, coarse_least_peak
 from solvers.reentry.problem import HEAT_LOAD_SCALE, T_SCALE, ReentryProblem, ReentrySolution
 from solvers.verification import Verification, propagate_dense
 
@@ -210,6 +210,16 @@ def solve(problem: ReentryProblem, *, initial_guess: InitialGuess | str | None =
     if proved is not None:
         # Proved before any iteration (solvers.reentry.certificate): the outcome rests on the problem.
         return proved
+    if problem.max_heat_rate_w_m2 is not None and not isinstance(initial_guess, InitialGuess):
+        # A limit both ends keep but no flight between can: the least peak on coarse grids
+        # (solvers.reentry.minmax) decides in seconds what the limited NLP took ~50 s to fail.
+        # Skipped on warm starts (refinement rounds, a job's answer): their problem was judged already.
+        cert = coarse_least_peak(problem, guess, should_stop=should_stop)
+        if cert is not None:
+            stages += [{"stage": f"least peak heating, {g['intervals']} intervals", "status": g["status"],
+                        "iterations": g["iterations"], "solve_time_s": g["solve_time_s"]} for g in cert["grids"]]
+        if cert is not None and cert["proves_infeasible"]:
+            return _least_peak_infeasible(problem, guess, cert, stages)
     if problem.terminal.latitude_rad is not None or problem.terminal.longitude_rad is not None:
         # A terminal position may be out of reach (paper 000 case 4). Telling IPOPT to expect
         # infeasibility makes it enter restoration early and stop at a point of minimal
@@ -257,6 +267,20 @@ def solve(problem: ReentryProblem, *, initial_guess: InitialGuess | str | None =
         classify_by_least_peak(problem, sol, sp=shooting_problem(problem), p=p, bounds=(x_lb, x_ub, u_lb, u_ub),
                                guess=on_grid(guess, m, problem.control), should_stop=should_stop)
     return sol
+
+
+def _least_peak_infeasible(problem, guess, cert, stages) -> ReentrySolution:
+    limit, least, err = cert["limit_w_m2"], cert["least_peak_heat_rate_w_m2"], cert["error_estimate_w_m2"]
+    coarse = cert["grids"][0]["least_peak_heat_rate_w_m2"]
+    msg = (f"the least peak heating rate any control gives is {least:.6g} W/m^2 (a min-max solve on "
+           f"{cert['grids'][-1]['intervals']} intervals; {coarse:.6g} on {cert['grids'][0]['intervals']}, so "
+           f"the grid's error is at most about {err:.3g}), above the limit {limit:.6g} "
+           f"({100 * (least / limit - 1):+.1f}%) by more than that error and the limit's tolerance")
+    return infeasible_before_the_nlp(problem, guess, solver_status="least_peak_bound",
+                                     message=f"infeasible, shown before the limited NLP: {msg}",
+                                     violation=least / limit - 1.0,
+                                     details={"least_peak_certificate": cert, "least_peak_heat_rate_w_m2": least},
+                                     note=f"the limited NLP was not solved: {msg}", stages=stages)
 
 
 WARM_IPOPT = {"mu_strategy": "monotone", "mu_init": 1e-3}
