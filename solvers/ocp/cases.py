@@ -191,3 +191,9 @@ PRESETS: dict[str, dict] = {
 
 # Several phases (params.phases): solvers/ocp/phase_cases.py.
 PRESETS.update(PHASE_PRESETS)
+
+# The literature catalogue (issue 35 item 7): solvers/ocp/catalogue/, one module per problem.
+# After PRESETS exists; the catalogue never imports this module.
+from solvers.ocp.catalogue import CATALOGUE
+
+PRESETS.update(CATALOGUE)
