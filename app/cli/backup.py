@@ -14,6 +14,11 @@ The file says which database it holds by its own first bytes ("SQLite format 3" 
 SQLite backup is never fed to ``pg_restore``, nor a dump to SQLite.  It is written beside its final
 name and renamed when complete: a backup interrupted half-way never leaves a file that looks whole.
 
+Nothing in a backup is trusted (app.runtime.restore_check, callable by any restore path): before the
+target is opened for writing, a SQLite backup's schema must be exactly the migrations' at its own revision
+and a dump's table of contents must hold only their objects (then restored from that checked list); a
+damaged file is one line.
+
 A restore refuses a database that holds jobs, results, studies or API keys unless ``--force``: it replaces
 everything in it.  Stop the service (API, workers, recovery) while restoring.  A backup taken at an
 older schema revision is restored as it was; ``trajlab migrate`` brings it to this version's.
@@ -149,7 +154,12 @@ def restore(url: str, src: Path, *, force: bool = False) -> dict:
     if held != kind:
         raise BackupError(f"{src} holds a {KINDS[held]} backup and the configured database "
                           f"({_shown(url)}) is {KINDS[kind]}; restore it into a {KINDS[held]} database")
-    revision = (_sqlite_restore if kind == "sqlite" else _pg_restore)(url, src, force=force)
+    from app.runtime.restore_check import UnsafeBackup
+
+    try:
+        revision = (_sqlite_restore if kind == "sqlite" else _pg_restore)(url, src, force=force)
+    except UnsafeBackup as exc:
+        raise BackupError(str(exc)) from None
     return {"kind": kind, "database": _shown(url), "revision": revision, "head": head_revision(),
             "seconds": time.monotonic() - t0}
 
@@ -210,10 +220,12 @@ def _sqlite_backup(url: str, dest: Path, partial: Path) -> str:
 
 
 def _sqlite_restore(url: str, src: Path, *, force: bool) -> str:
+    from app.runtime.restore_check import check_sqlite
+
     path = _sqlite_path(url)
+    check_sqlite(src)   # the schema of the migrations at its revision, or refused before the target is opened
     path.parent.mkdir(parents=True, exist_ok=True)
     with sqlite3.connect(f"file:{src}?mode=ro", uri=True) as backup_db:
-        _sqlite_check(backup_db, str(src))
         target = sqlite3.connect(path, timeout=30)
         try:
             _refuse_unless_forced(url, _sqlite_rows(target), force)
@@ -306,20 +318,31 @@ SELECT 'TYPE', quote_ident(t.typname) FROM pg_type t JOIN pg_namespace n ON n.oi
 
 
 def _pg_restore(url: str, src: Path, *, force: bool) -> str:
+    import tempfile
+
+    from app.runtime.restore_check import check_pg_dump
+
     with _pg_connect(url) as conn:
         major = conn.info.server_version // 10000
+    pg_restore, psql = _tool("pg_restore", major), _tool("psql", major)
+    dsn, env = _pg_target(url)
+    # the archive's objects against the migrations' at its revision, before anything is written
+    _, checked = check_pg_dump(src, pg_restore=pg_restore, env=env)
+    with _pg_connect(url) as conn:
         objects = conn.execute(_OBJECTS).fetchall()
         tables = [name for what, name in objects if what == "TABLE"]
         with_rows = [t for t in tables if t in DATA_TABLES
                      and conn.execute(f"SELECT EXISTS (SELECT 1 FROM public.{t})").fetchone()[0]]
         _refuse_unless_forced(url, with_rows, force)
-    pg_restore, psql = _tool("pg_restore", major), _tool("psql", major)
-    dsn, env = _pg_target(url)
     drops = [f"DROP {what} IF EXISTS public.{name} CASCADE;" for what, name in objects]
-    # pg_restore writes the dump as SQL; psql runs it and the drops as ONE transaction (-1), stopping at the
-    # first error (ON_ERROR_STOP): a restore that fails leaves the database as it was
-    script = subprocess.Popen([pg_restore, "--no-owner", "--no-privileges", "--file", "-", str(src)], env=env,
-                              stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    # kept past the block (pg_restore reads it by name), removed once pg_restore is done
+    with tempfile.NamedTemporaryFile("w", prefix="trajlab-restore-", suffix=".list", delete=False) as listing:
+        listing.write(checked)
+    # pg_restore writes the checked entries only (--use-list) as SQL; psql runs it and the drops as ONE
+    # transaction (-1), stopping at the first error (ON_ERROR_STOP): a restore that fails leaves the
+    # database as it was
+    script = subprocess.Popen([pg_restore, "--no-owner", "--no-privileges", "--use-list", listing.name,
+                               "--file", "-", str(src)], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     try:
         _run([psql, "-X", "-q", "-v", "ON_ERROR_STOP=1", "--single-transaction", "--dbname", dsn,
               "-c", " ".join(drops) or "SELECT 1", "-f", "-"], env=env, what="psql (restoring)",
@@ -329,6 +352,7 @@ def _pg_restore(url: str, src: Path, *, force: bool) -> str:
         err = script.stderr.read().decode(errors="replace")
         script.stderr.close()
         script.wait(timeout=60)
+        os.unlink(listing.name)
     if script.returncode != 0:
         raise BackupError(f"pg_restore failed: {' '.join(err.strip().splitlines()[-3:])}")
     with _pg_connect(url) as conn:
