@@ -11,13 +11,26 @@ migration needs no change here.
 from __future__ import annotations
 
 import uuid
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 
 import psycopg
 import pytest
 from alembic.script import ScriptDirectory
-from sqlalchemy import JSON, BigInteger, Boolean, DateTime, Float, Integer, LargeBinary, MetaData, String, Text, \
-    create_engine, insert, select
+from sqlalchemy import (
+    JSON,
+    BigInteger,
+    Boolean,
+    DateTime,
+    Float,
+    Integer,
+    LargeBinary,
+    MetaData,
+    String,
+    Text,
+    create_engine,
+    insert,
+    select,
+)
 
 from app.runtime.db import get_database
 from app.runtime.migrate import alembic_config, upgrade
@@ -29,7 +42,7 @@ pytestmark = pytest.mark.integration
 
 EARLIER = [s.revision for s in reversed(list(ScriptDirectory.from_config(alembic_config("")).walk_revisions()))][:-1]
 ROWS = 3   # of each table, per revision
-WHEN = datetime(2026, 1, 2, 3, 4, 5, tzinfo=timezone.utc)
+WHEN = datetime(2026, 1, 2, 3, 4, 5, tzinfo=UTC)
 
 
 def _value(column, i: int, table: str):
@@ -101,7 +114,7 @@ def _read(url: str) -> dict[str, dict[str, dict]]:
 
 def _same(stored, written) -> bool:
     if isinstance(written, datetime) and isinstance(stored, datetime):
-        return (stored if stored.tzinfo else stored.replace(tzinfo=timezone.utc)) == written
+        return (stored if stored.tzinfo else stored.replace(tzinfo=UTC)) == written
     return stored == written
 
 
