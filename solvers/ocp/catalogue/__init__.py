@@ -22,6 +22,9 @@ MODULES = (
     "hypersensitive",
     "unstable_min_energy",
     "hang_glider_thermal_table",
+    "isoperimetric",
+    "scalar_lq_riccati",
+    "tumor_two_phases",
 )
 
 
