@@ -1,4 +1,5 @@
-# trajlab: `make run` starts the embedded service, `make test` runs the whole suite.
+# trajlab: `make run` starts the embedded service, `make test` runs the whole suite, `make check` the
+# fast loop (lint, types, layering, unit tests without the long solves).
 PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
@@ -8,7 +9,7 @@ PORT   ?= $(or $(TRAJLAB_PORT),8000)
 # `make run` prints how long it took to the first /healthz (scripts/first_healthz.py)
 MAKE_STARTED := $(shell date +%s.%N)
 
-.PHONY: run test install install-test bench clean lock guide
+.PHONY: run test check lint install install-test bench clean lock guide
 
 # Installs follow the lock, uv.lock: every transitive dependency at one version with its hashes, so two
 # installs a month apart are the same.  uv (pinned) installs from it in seconds; uv reads PyPI only
@@ -53,13 +54,26 @@ run: install
 	@$(PY) scripts/first_healthz.py --port $(PORT) --since $(MAKE_STARTED) &
 	$(VENV)/bin/trajlab serve --port $(PORT)
 
+# The machine-checked rules: ruff (lint), mypy (types) and import-linter (layers), each configured in
+# pyproject.toml.  mypy's cache (.mypy_cache) makes a second run take seconds.
+lint: install-test
+	$(VENV)/bin/ruff check --quiet .
+	$(VENV)/bin/mypy
+	$(VENV)/bin/lint-imports
+
 # scripts/test-prerequisites.sh makes the machine's PostgreSQL, Redis and Debian's Chromium present
 # (or stops naming the missing one); the suite ends with the time each marker took.
 # make test PYTEST_ARGS="--random-order" shuffles the order (pytest-random-order; seed printed).
 test: install-test
 	scripts/test-prerequisites.sh
-	$(VENV)/bin/lint-imports
+	$(MAKE) --no-print-directory lint
 	$(PY) -m pytest $(PYTEST_ARGS)
+
+# The fast loop before a commit (under 2 minutes): the lint above and the unit tests less the long solves
+# (`slow`, which `make test` still runs); no PostgreSQL, Redis or browser needed.
+CHECK_MARKERS := not slow and not integration and not browser and not faults
+check: lint
+	$(PY) -m pytest -q tests/unit -m "$(CHECK_MARKERS)" $(PYTEST_ARGS)
 
 $(VENV)/.installed-bench: $(VENV)/.installed pyproject.toml uv.lock
 	$(call install_locked,--extra bench,bench)
@@ -74,4 +88,4 @@ bench: $(VENV)/.installed-bench
 	$(PY) -m benchmarks.run_all --timeout $(BENCH_TIMEOUT) $(if $(BENCH),--only $(BENCH))
 
 clean:
-	rm -rf $(VENV) var .pytest_cache
+	rm -rf $(VENV) var .pytest_cache .mypy_cache .ruff_cache
