@@ -77,7 +77,7 @@ def wait_http(url: str, timeout: float = 30.0) -> None:
             return
         except Exception:
             if time.monotonic() > deadline:
-                raise RuntimeError(f"{url} did not answer within {timeout} s")
+                raise RuntimeError(f"{url} did not answer within {timeout} s") from None
             time.sleep(0.2)
 
 

@@ -49,7 +49,7 @@ class SolveStatus:
         return self.outcome is Outcome.OPTIMAL
 
 
-def noop_progress(fraction: float, message: str) -> None:  # noqa: ARG001
+def noop_progress(fraction: float, message: str) -> None:
     """Default progress sink."""
 
 

@@ -193,6 +193,21 @@ def propagate_dense(*, dynamics: Callable, p, key: tuple, x0, t_nodes, x_nodes, 
 
 
 # --- adaptive reference (scipy) -------------------------------------------------------------------
+RhsT = Callable[[float, np.ndarray], np.ndarray]
+
+
+def _linear_control_rhs(rhs: Callable, *, ta: float, tb: float, ua: np.ndarray, ub: np.ndarray) -> RhsT:
+    def f(t, y):
+        return rhs(y, ua + (t - ta) / (tb - ta) * (ub - ua))
+    return f
+
+
+def _constant_control_rhs(rhs: Callable, ua: np.ndarray) -> RhsT:
+    def f(t, y):
+        return rhs(y, ua)
+    return f
+
+
 def repropagate(*, rhs: Callable[[np.ndarray, np.ndarray], np.ndarray], x0, t_nodes, x_nodes,
                 u_nodes, control: str, path: dict[str, Callable] | None = None,
                 samples_per_interval: int = 10, rtol: float = 1e-10,
@@ -212,11 +227,9 @@ def repropagate(*, rhs: Callable[[np.ndarray, np.ndarray], np.ndarray], x0, t_no
         ua = control_at(ta, t_nodes, u_nodes, control)[:, 0]
         if control == "linear":
             ub = control_at(tb, t_nodes, u_nodes, control)[:, 0]
-            def f(t, y, ta=ta, tb=tb, ua=ua, ub=ub):
-                return rhs(y, ua + (t - ta) / (tb - ta) * (ub - ua))
+            f = _linear_control_rhs(rhs, ta=ta, tb=tb, ua=ua, ub=ub)
         else:
-            def f(t, y, ua=ua):
-                return rhs(y, ua)
+            f = _constant_control_rhs(rhs, ua)
         te = np.linspace(ta, tb, samples_per_interval + 1)
         sol = solve_ivp(f, (ta, tb), x, method="DOP853", rtol=rtol, atol=atol, t_eval=te)
         if not sol.success:

@@ -99,8 +99,8 @@ def _pow2(nf):
 def exp(x):
     """e^x within 1 ulp; inf above 709.78, 0 below -745.13, NaN for NaN."""
     # clamp so that n fits the two scale factors; NaN passes through (comparisons are false)
-    xc = -746.0 if x < -746.0 else x  # noqa: FURB136 (spelled out: what NaN does is the point)
-    xc = 710.0 if xc > 710.0 else xc  # noqa: FURB136
+    xc = -746.0 if x < -746.0 else x  # not min/max: what NaN does is the point
+    xc = 710.0 if xc > 710.0 else xc
     nf = fma(xc, _LOG2E, _MAGIC) - _MAGIC
     r = fma(-nf, _LN2_LO, fma(-nf, _LN2_HI, xc))      # the inner one is exact
     # e^r = 1 + r + r^2 q(r), q of degree 11 by Estrin's scheme: a dependency chain of 4 fma

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import json
-from functools import lru_cache
+from functools import cache
 
 from app.kinds import KINDS, PRESETS
 from app.kinds.base import RunOutcome
@@ -15,7 +15,7 @@ OVERRIDES = {"long-range-intercept": {"porkchop": {"enabled": True}},
              "robust-max-crossrange": {"monte_carlo": {"samples": 2000}}}
 
 
-@lru_cache(maxsize=None)
+@cache
 def _solve(name: str, overrides_json: str) -> tuple[str, dict, RunOutcome]:
     preset = PRESETS[name]
     spec = KINDS[preset.kind]

@@ -169,7 +169,7 @@ class JobGuard:
 
     def _limit_data(self) -> None:
         data = data_bytes()
-        if data is None:
+        if data is None or self.cap_bytes is None:
             return
         soft, hard = resource.getrlimit(resource.RLIMIT_DATA)
         want = int(data + DATA_BACKSTOP * self.cap_bytes)

@@ -181,7 +181,7 @@ def run_job(self, job_id: str, attempt: int) -> str | None:
     except DatabaseUnavailable as exc:
         delay = min(2.0 ** min(self.request.retries, 6), settings.db_retry_max_s)
         log.warning("job %s: database unreachable (%s); delivery retried in %.0f s", job_id, exc, delay)
-        raise self.retry(countdown=delay)
+        raise self.retry(countdown=delay) from exc
     if status == REFUSED:
         # Acknowledged and logged by Celery as "ignored", not "succeeded": execute_job logged the refusal.
         raise Ignore()

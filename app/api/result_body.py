@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import json
 import logging
-from functools import lru_cache
+from functools import cache
 from typing import Union
 
 from pydantic import BaseModel, TypeAdapter, ValidationError
@@ -40,7 +40,7 @@ def _union():
 JobResult = _union()
 
 
-@lru_cache(maxsize=None)
+@cache
 def _adapter(model: type[BaseModel]) -> TypeAdapter:
     return TypeAdapter(model)
 

@@ -343,6 +343,7 @@ def _pg_restore(url: str, src: Path, *, force: bool) -> str:
     # database as it was
     script = subprocess.Popen([pg_restore, "--no-owner", "--no-privileges", "--use-list", listing.name,
                                "--file", "-", str(src)], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    assert script.stdout is not None and script.stderr is not None  # PIPE
     try:
         _run([psql, "-X", "-q", "-v", "ON_ERROR_STOP=1", "--single-transaction", "--dbname", dsn,
               "-c", " ".join(drops) or "SELECT 1", "-f", "-"], env=env, what="psql (restoring)",

@@ -58,8 +58,9 @@ def _print_numbers(client, job: dict) -> None:
     elif job.get("error"):
         from app.kinds.failures import as_lines, explain
 
-        for line in as_lines(explain(job["error"], _last_iterate(client, job["id"]))):
-            print(f"  {line}", file=sys.stderr)
+        explained = explain(job["error"], _last_iterate(client, job["id"]))
+        for text in as_lines(explained) if explained is not None else []:
+            print(f"  {text}", file=sys.stderr)
 
 
 def _last_iterate(client, job_id: str) -> dict | None:

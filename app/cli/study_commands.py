@@ -43,7 +43,7 @@ def _print_study(study: dict) -> None:
 def _follow(client, study_id: str, *, quiet: bool, timeout: float | None = None) -> dict:
     """Wait for the study with the jobs' progress bar (rich, on stderr), or plain lines when not a terminal."""
     if quiet or not sys.stderr.isatty() and not _force_bar():
-        last = [None]
+        last: list[str | None] = [None]
 
         def line(study):
             text = _line(study)

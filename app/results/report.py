@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import html
 import json
+from typing import Any
 
 
 def _table(d: dict) -> str:
@@ -62,7 +63,7 @@ def _blocks(result: dict):
     """(label, dict) of the solver and verification blocks wherever they sit in the result."""
     for path in ("solver", "verification", "impulsive.solver", "impulsive.verification", "finite_thrust.solver",
                  "finite_thrust.verification", "objective", "final"):
-        node = result
+        node: Any = result
         for part in path.split("."):
             node = node.get(part) if isinstance(node, dict) else None
         if isinstance(node, dict):

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import csv
 import io
-from typing import Callable
+from typing import Any, Callable
 
 
 def _columns(block: dict | None) -> dict[str, list] | None:
@@ -38,7 +38,7 @@ def _porkchop(r: dict) -> dict[str, list] | None:
 
 
 def _at(path: str) -> Callable[[dict], dict | None]:
-    def pick(r: dict):
+    def pick(r: Any):
         for part in path.split("."):
             r = r.get(part) if isinstance(r, dict) else None
         return _columns(r)
@@ -53,10 +53,10 @@ def _phases(r: dict) -> dict[str, list] | None:
         return _at("trajectory")(r)
     names: list[str] = []
     for p in phases:
-        names += [n for n in _columns(p["trajectory"]) if n not in names]
+        names += [n for n in _columns(p["trajectory"]) or {} if n not in names]
     cols: dict[str, list] = {"phase": [], **{n: [] for n in names}}
     for p in phases:
-        tr = _columns(p["trajectory"])
+        tr = _columns(p["trajectory"]) or {"t": []}
         n = len(tr["t"])
         cols["phase"] += [p["name"]] * n
         for k in names:

@@ -58,7 +58,7 @@ PING_IDLE_S = 5.0
 
 def pg_connect_args(settings: "Settings", *, statement_timeout: bool = True) -> dict:
     """psycopg (libpq) connection parameters that bound every call in time (module docstring)."""
-    args = {
+    args: dict[str, int | str] = {
         "connect_timeout": int(settings.db_connect_timeout_s),
         "keepalives": 1,
         "keepalives_idle": int(settings.db_keepalives_idle_s),

@@ -38,17 +38,22 @@ log = logging.getLogger("trajlab")
 PR_SET_PDEATHSIG = 1
 
 
+def _load_libc() -> ctypes.CDLL | None:
+    try:
+        return ctypes.CDLL("libc.so.6", use_errno=True)
+    except OSError:
+        return None  # not Linux: the finally of serve still stops the children on a normal exit
+
+
+# Loaded here, in the parent: between fork and exec (where another thread of the parent may have held a
+# lock at the fork, the dynamic loader's among them) the child only calls prctl.
+_LIBC = _load_libc()
+
+
 def exit_with_parent() -> None:  # runs in the child between fork and exec
     """``PR_SET_PDEATHSIG``: the kernel sends this child SIGTERM when its parent dies, even by SIGKILL."""
-    try:
-        ctypes.CDLL("libc.so.6", use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
-    except OSError:
-        pass  # not Linux: the finally of serve still stops the children on a normal exit
-
-
-def _die_with_parent() -> None:  # runs in the child between fork and exec
-    os.setsid()  # its own process group: stopped as a whole
-    exit_with_parent()
+    if _LIBC is not None:
+        _LIBC.prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
 
 
 def port_in_use(host: str, port: int) -> bool:
@@ -82,7 +87,7 @@ class Supervised:
     """One child process, restarted with backoff if it dies, stopped (group-wide) with ``stop``."""
 
     def __init__(self, name: str, cmd: list[str], *, env: dict, log_path: Path,
-                 on_restart: Callable[[], None] | None = None, stop: Callable[["Supervised"], None] | None = None,
+                 on_restart: Callable[[], None] | None = None, stop: Callable[["Supervised"], object] | None = None,
                  backoff: Backoff | None = None):
         self.name, self.cmd, self.env, self.log_path = name, cmd, env, log_path
         self.on_restart, self._stop_fn = on_restart, stop
@@ -101,8 +106,10 @@ class Supervised:
 
     def _spawn(self) -> None:
         logf = open(self.log_path, "ab")
+        # its own session (start_new_session: Popen's own setsid) so its process group is stopped as a
+        # whole; a supervisor thread spawns while others run, so preexec_fn does only the prctl (PLW1509)
         self.proc = subprocess.Popen(self.cmd, env=self.env, stdout=logf, stderr=subprocess.STDOUT,
-                                     preexec_fn=_die_with_parent)
+                                     start_new_session=True, preexec_fn=exit_with_parent)  # noqa: PLW1509
         self._started_at = time.monotonic()
         log.info("%s started (pid %d), log %s", self.name, self.proc.pid, self.log_path)
 

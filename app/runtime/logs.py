@@ -20,7 +20,7 @@ import re
 import uuid
 from contextlib import contextmanager
 from datetime import datetime, timezone
-from typing import Iterator
+from typing import Any, Iterator
 
 FIELDS = ("request_id", "job_id", "kind", "owner")
 _CONTEXT: dict[str, contextvars.ContextVar[str | None]] = {
@@ -93,7 +93,7 @@ class JsonFormatter(logging.Formatter):
     """One JSON object per line: time (UTC, ISO 8601), level, logger, message and the context fields."""
 
     def format(self, record: logging.LogRecord) -> str:
-        body = {"time": datetime.fromtimestamp(record.created, timezone.utc).isoformat(timespec="milliseconds"),
+        body: dict[str, Any] = {"time": datetime.fromtimestamp(record.created, timezone.utc).isoformat(timespec="milliseconds"),
                 "level": record.levelname, "logger": record.name, "message": record.getMessage()}
         for name in FIELDS:
             body[name] = getattr(record, name, None)

@@ -139,6 +139,8 @@ def decode(packed: bytes | None, encoding: str | None, data=None):
         return data
     if encoding != ENCODING:
         raise ValueError(f"unknown result encoding {encoding!r}")
+    if packed is None:
+        raise ValueError(f"result encoded as {encoding!r} without its packed bytes")
     raw = zlib.decompress(packed)
     (n_header,) = _HEADER.unpack_from(raw)
     header = json.loads(raw[_HEADER.size:_HEADER.size + n_header])
@@ -151,12 +153,12 @@ def decode(packed: bytes | None, encoding: str | None, data=None):
         while j < len(specs) and specs[j][1] == n and specs[j][2] == order:
             j += 1
         k = j - i
-        bits = np.frombuffer(raw, dtype=np.uint8, count=8 * n * k, offset=at).reshape(k, 8, n)
-        bits = np.ascontiguousarray(bits.transpose(0, 2, 1)).view("<i8").reshape(k, n)
+        planes = np.frombuffer(raw, dtype=np.uint8, count=8 * n * k, offset=at).reshape(k, 8, n)
+        bits = np.ascontiguousarray(planes.transpose(0, 2, 1)).view("<i8").reshape(k, n)
         at += 8 * n * k
         for _ in range(order):
             bits = np.cumsum(bits, axis=1, dtype=np.int64)
-        rows = bits.view("<f8").tolist()
+        rows: list[list[float | None]] = bits.view("<f8").tolist()
         for (path, _, _, has_nulls), row_bits, values in zip(specs[i:j], bits, rows):
             if has_nulls:
                 for m in np.flatnonzero(row_bits == null_bits).tolist():

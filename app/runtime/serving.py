@@ -45,7 +45,7 @@ def run_processes(config: Config) -> None:
     config.port = reserved.getsockname()[1]
     # The supervisor creates its processes through this module's global (in init_processes, restarts and
     # keep_subprocess_alive alike); this parent does nothing else, and the children are spawned afresh.
-    multiprocess.Process = ReusePortProcess
+    multiprocess.Process = ReusePortProcess  # type: ignore[misc]  # a class replaced on purpose
     try:
         multiprocess.Multiprocess(config, sockets=[reserved]).run()
     finally:

@@ -27,7 +27,7 @@ from app.service.broker import QUEUE_JOBS
 from app.runtime.db import Database
 from app.runtime.models import FINAL_STATUSES, Job, JobResult, new_id, utcnow
 
-JOBS = Job.__table__
+JOBS = Job.metadata.tables[Job.__tablename__]  # Job.__table__, typed as the Table it is
 # A job's columns as a read-only row: the same attribute names as a Job (job.status, job.owner, ...), read by
 # Core without the ORM's identity map and unit of work (the hot routes: half a GET's CPU was Session.get).
 JobRow = Row

@@ -22,9 +22,10 @@ import os
 import socket
 import uuid
 from dataclasses import dataclass
+from typing import Any, cast
 from datetime import datetime, timedelta, timezone
 
-from sqlalchemy import func, insert, select, update
+from sqlalchemy import CursorResult, func, insert, select, update
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
@@ -45,9 +46,14 @@ def _now(session: Session) -> datetime:
     return utcnow()
 
 
-def _aware(dt: datetime | None) -> datetime | None:
+def _rowcount(result: Any) -> int:
+    # an UPDATE's result is a CursorResult; Session.execute is typed with the general Result
+    return cast(CursorResult, result).rowcount
+
+
+def _aware(dt: datetime) -> datetime:
     # SQLite gives naive datetimes back (stored as UTC)
-    return dt if dt is None or dt.tzinfo is not None else dt.replace(tzinfo=timezone.utc)
+    return dt if dt.tzinfo is not None else dt.replace(tzinfo=timezone.utc)
 
 
 def acquire(db: Database, name: str, holder: str, *, length_s: float) -> bool:
@@ -55,12 +61,12 @@ def acquire(db: Database, name: str, holder: str, *, length_s: float) -> bool:
     with db.write() as s:
         now = _now(s)
         expires = now + timedelta(seconds=length_s)
-        held = s.execute(update(Lease).where(Lease.name == name, Lease.holder == holder)
-                         .values(expires_at=expires, renewed_at=now)).rowcount
+        held = _rowcount(s.execute(update(Lease).where(Lease.name == name, Lease.holder == holder)
+                                   .values(expires_at=expires, renewed_at=now)))
         if held:
             return True
-        taken = s.execute(update(Lease).where(Lease.name == name, Lease.expires_at < now)
-                          .values(holder=holder, acquired_at=now, expires_at=expires, renewed_at=now)).rowcount
+        taken = _rowcount(s.execute(update(Lease).where(Lease.name == name, Lease.expires_at < now)
+                                    .values(holder=holder, acquired_at=now, expires_at=expires, renewed_at=now)))
         if taken:
             return True
         if s.get(Lease, name) is not None:

@@ -140,6 +140,7 @@ def latest_by_index(jobs_: list[Job]) -> dict[int, Job]:
     """The last job of each point (a retried point has several)."""
     out: dict[int, Job] = {}
     for job in jobs_:
+        assert job.study_index is not None  # a study's jobs carry their point's index
         out[job.study_index] = job
     return out
 
@@ -153,7 +154,7 @@ def objective_values(session, kind: str, jobs_: list[Job]) -> dict[str, float]:
     for job in jobs_:
         row = session.get(JobResult, job.id) if job.status == "succeeded" else None
         try:
-            value = float(get_path(storage.read_result(row), path)) if row is not None else None
+            value = float(get_path(storage.read_result(row) or {}, path)) if row is not None else None
         except (KeyError, TypeError, ValueError):
             value = None
         if value is not None:
@@ -165,6 +166,7 @@ def best_by_index(jobs_: list[Job], values: dict[str, float]) -> dict[int, Job]:
     """Each point's job to report: the best succeeded one by the fixed objective, else the last."""
     out = latest_by_index(jobs_)
     for job in jobs_:
+        assert job.study_index is not None  # a study's jobs carry their point's index
         cur = out[job.study_index]
         if job.id in values and (cur.id not in values or values[job.id] < values[cur.id]):
             out[job.study_index] = job

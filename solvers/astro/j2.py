@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 # Defined in solvers.astro.earth; importable from here too (solvers.astro.j2.MU_EARTH).
 from solvers.astro.earth import AE_EARTH, J2_EARTH, MU_EARTH, WGS84_FLATTENING
@@ -98,7 +99,7 @@ def j2_acceleration(r_geo: np.ndarray, spin_axis: np.ndarray,
     return g_r * r_geo / r + g_w * spin_axis
 
 
-def j2_rhs(t: float, y: np.ndarray, spin_axis: np.ndarray,  # noqa: ARG001 (solve_ivp signature)
+def j2_rhs(t: float, y: np.ndarray, spin_axis: np.ndarray,  # t unused: solve_ivp's signature
            constants: GravityConstants = GravityConstants()) -> np.ndarray:
     """``dy/dt`` for ``y = (R, V)`` (6,) or (6, N): the right-hand side for scipy's solve_ivp."""
     y = np.asarray(y, dtype=float)
@@ -199,8 +200,9 @@ class J2Propagator:
 
         return at
 
-    def propagate(self, states: np.ndarray, *, t0: np.ndarray, t1: np.ndarray) -> np.ndarray:
-        """Propagate states (N, 6) from times t0 (N,) to t1 (N,), SIMD-batched; returns (N, 6)."""
+    def propagate(self, states: np.ndarray, *, t0: ArrayLike, t1: ArrayLike) -> np.ndarray:
+        """Propagate states (N, 6) from times t0 (N,) to t1 (N,) (or one time for all), SIMD-batched;
+        returns (N, 6)."""
         states = np.asarray(states, dtype=float)
         n = states.shape[0]
         t0 = np.broadcast_to(np.asarray(t0, dtype=float), (n,))

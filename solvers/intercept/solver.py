@@ -270,7 +270,7 @@ def _run_impulsive(problem, *, on_progress=None, should_stop=None, initial_guess
     return solve_impulsive(problem, on_progress=on_progress, should_stop=should_stop)
 
 
-METHODS: dict[str, Callable[..., object]] = {"impulsive": _run_impulsive, "finite_thrust": solve_finite}
+METHODS: dict[str, Callable[..., ImpulsiveSolution | FiniteThrustSolution]] = {"impulsive": _run_impulsive, "finite_thrust": solve_finite}
 
 
 def solve(problem: InterceptProblem, *, initial_guess=None, on_progress: ProgressFn | None = None,
@@ -289,7 +289,7 @@ def solve(problem: InterceptProblem, *, initial_guess=None, on_progress: Progres
         if name not in METHODS:
             raise ValueError(f"unknown intercept method {name!r}; known: {sorted(METHODS)}")
 
-        def sub_progress(fraction, message, k=k):
+        def sub_progress(fraction, message, k=k, name=name):
             progress((k + fraction) / len(methods), f"{name}: {message}")
 
         res = METHODS[name](problem, on_progress=sub_progress, should_stop=should_stop,

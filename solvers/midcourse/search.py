@@ -71,12 +71,12 @@ def run_nsga2(problem: MidcourseProblem, ev: Callable[[np.ndarray], np.ndarray],
 
     lo, hi = map(float, problem.time_bounds)
     ga = problem.ga
-    state = {"cancelled": False}
+    state = {"cancelled": False, "copies": 0}
 
     def after_generation(gen: int) -> bool:
         on_progress(min(gen / ga.generations, 1.0), f"generation {gen}/{ga.generations}")
         state["cancelled"] = bool(should_stop())
-        return state["cancelled"]
+        return bool(state["cancelled"])
 
     # With the paper's rates a third of the offspring are exact copies of a parent (no crossover,
     # or crossover on no variable, and no mutation): their objectives are known, so only new
@@ -95,7 +95,6 @@ def run_nsga2(problem: MidcourseProblem, ev: Callable[[np.ndarray], np.ndarray],
         state["copies"] += len(keys) - len(new)
         return np.array([known[key] for key in keys])
 
-    state["copies"] = 0
     x, f, generation = nsga2(
         evaluate, variables=problem.corrections, bounds=(lo, hi), population=ga.population, generations=ga.generations,
         ops=Operators(crossover_prob=ga.crossover_prob, mutation_prob=ga.mutation_prob,

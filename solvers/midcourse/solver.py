@@ -38,6 +38,11 @@ PENALTY = np.array([1.0e6, 1.0e12, 1.0e6])
 _MIRROR = np.array([-1.0, 1.0, 1.0])
 
 
+def _triple(v) -> tuple[float, float, float]:
+    a, b, c = v
+    return (float(a), float(b), float(c))
+
+
 class CorrectionEvaluator:
     """Objectives of correction schedules, vectorized over schedules and error samples."""
 
@@ -164,7 +169,7 @@ def solve(problem: MidcourseProblem, *, initial_guess=None, on_progress: Progres
     ev = CorrectionEvaluator(problem)
     build_s = time.perf_counter() - t_start
     sol = MidcourseSolution(status=SolveStatus(Outcome.OPTIMAL), nominal_miss=ev.nominal_miss,
-                            hypervolume_reference=tuple(problem.hypervolume_reference))
+                            hypervolume_reference=_triple(problem.hypervolume_reference))
     f0 = ev.evaluate_samples(np.zeros((1, 0)))
     sol.uncorrected = ev.statistics(f0)[0][0]
     ev.evaluations = 0          # count only the schedules asked for or searched

@@ -55,7 +55,7 @@ def inertial_rotation(frame: LaunchFrame) -> np.ndarray:
     w = w / np.linalg.norm(w)
     r0 = np.asarray(frame.r0, float)
     eq = r0 - (r0 @ w) * w
-    if np.linalg.norm(eq) <= 1e-9 * max(np.linalg.norm(r0), 1.0):
+    if np.linalg.norm(eq) <= 1e-9 * max(float(np.linalg.norm(r0)), 1.0):
         eq = np.array([1.0, 0.0, 0.0]) - w[0] * w   # no launch point: keep the frame's own x
     x = eq / np.linalg.norm(eq)
     return np.vstack([x, np.cross(w, x), w])

@@ -13,6 +13,7 @@ A table with one Mach breakpoint is a table in alpha alone.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,8 +27,8 @@ class AeroTable:
 
     alpha_deg: tuple
     mach: tuple
-    cl: tuple
-    cd: tuple
+    cl: Sequence | np.ndarray   # rows alpha, columns Mach: nested tuples or a 2-D array
+    cd: Sequence | np.ndarray
 
     def __post_init__(self):
         object.__setattr__(self, "alpha_deg", tables.check_breakpoints(self.alpha_deg, "alpha_deg", minimum=4))

@@ -64,7 +64,7 @@ ReentryModel = Vehicle
 """Alias: the dynamics' parameter object (vehicle + atmosphere + planet + flags)."""
 
 # Betts' spherical, non-rotating Earth (the rotation rate is used only with rotating_earth).
-EARTH_BETTS = Planet(mu_m3_s2=0.14076539e17 * FT3_TO_M3, radius_m=20902900.0 * FT_TO_M, name="earth")
+EARTH_BETTS: Planet = Planet(mu_m3_s2=0.14076539e17 * FT3_TO_M3, radius_m=20902900.0 * FT_TO_M, name="earth")
 BETTS_ATMOSPHERE = Atmosphere(kind="exponential", rho0_kg_m3=0.002378 * SLUG_FT3_TO_KG_M3,
                               scale_height_m=23800.0 * FT_TO_M)
 # Betts: weight 203000 lb with g0 = 32.174 ft/s^2, i.e. mass in slugs; S = 2690 ft^2.

@@ -12,6 +12,7 @@ e.g. to a Monte Carlo worker.
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
 from solvers.models.aerodynamics import AeroTable
 from solvers.models.atmosphere import Atmosphere
@@ -38,7 +39,7 @@ def heating_numbers(v: Vehicle) -> list:
 def with_symbols(v: Vehicle, aero, heating) -> dict:
     """``dataclasses.replace`` overrides putting symbols ``aero`` (as :func:`aero_numbers`) and
     ``heating`` (as :func:`heating_numbers`) in place of the vehicle's numbers."""
-    over = {}
+    over: dict[str, Any] = {}
     if v.aero_table is None:
         ncl = len(v.cl_coeffs)
         over["cl_coeffs"] = tuple(aero[k] for k in range(ncl))

@@ -194,6 +194,6 @@ PRESETS.update(PHASE_PRESETS)
 
 # The literature catalogue (issue 35 item 7): solvers/ocp/catalogue/, one module per problem.
 # After PRESETS exists; the catalogue never imports this module.
-from solvers.ocp.catalogue import CATALOGUE
+from solvers.ocp.catalogue import CATALOGUE  # noqa: E402 (after PRESETS, as said above)
 
 PRESETS.update(CATALOGUE)

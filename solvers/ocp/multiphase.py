@@ -72,7 +72,7 @@ class MultiPhaseNLP:
         self.solver, self.was_cached = cached_solver(
             key, lambda: solver_of_elements(self._elements(), nz=self.nz, np_=self.np_, name="ocp_multiphase",
                                             ipopt=ipopt or {}))
-        self.layout = self.solver.ocp_layout
+        self.layout = self.solver.layout
 
     # -- the elements ------------------------------------------------------------------------------
     def _elements(self) -> list[Element]:

@@ -133,7 +133,7 @@ class PhaseNLP:
             return
         key = ("ocp", problem.structure(), BLOCKS, tuple(sorted((ipopt or {}).items())))
         self.solver, self.was_cached = cached_solver(key, lambda: self._build(ipopt or {}))
-        self.layout = self.solver.ocp_layout
+        self.layout = self.solver.layout
 
     def split_p(self, p):
         fns = self.fns
@@ -238,7 +238,7 @@ class PhaseNLP:
 
 def solver_of_elements(elements: list[Element], *, nz: int, np_: int, name: str, ipopt: dict) -> NLPSolver:
     """The IPOPT solver of a sum of elements (their constraints stacked in order), its
-    ``ocp_layout`` the ``(name, rows)`` of each element with constraints."""
+    ``layout`` the ``(name, rows)`` of each element with constraints."""
     z, p = ca.MX.sym("z", nz), ca.MX.sym("p", np_)
     parts, layout, f = [], [], 0
     for el in elements:
@@ -252,7 +252,7 @@ def solver_of_elements(elements: list[Element], *, nz: int, np_: int, name: str,
     nlp = {"x": z, "p": p, "f": f, "g": ca.vertcat(*parts)}
     blocks = ElementBlocks(nlp, elements) if BLOCKS else None
     solver = NLPSolver(nlp, name=name, ipopt=ipopt, blocks=blocks)
-    solver.ocp_layout = layout
+    solver.layout = layout
     return solver
 
 

@@ -61,9 +61,9 @@ def least_at_pinned_ends(problem: ReentryProblem) -> list[dict]:
         X = np.tile(x[:, None], (1, alphas.size))
         U = np.vstack([alphas, np.zeros(alphas.size)])
         for quantity, limit, values in (
-                ("heat_rate_w_m2", problem.max_heat_rate_w_m2, lambda: dyn.heat_rate(X, U, problem.vehicle, np)),
+                ("heat_rate_w_m2", problem.max_heat_rate_w_m2, lambda X=X, U=U: dyn.heat_rate(X, U, problem.vehicle, np)),
                 ("dynamic_pressure_pa", problem.max_dynamic_pressure_pa,
-                 lambda: dyn.dynamic_pressure(X, problem.vehicle, np))):
+                 lambda X=X: dyn.dynamic_pressure(X, problem.vehicle, np))):
             if limit is None:
                 continue
             least = float(np.min(values()))

@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 
@@ -101,7 +101,7 @@ def hold_limits(res, ver: Verification, *, limits: list[Limit], intervals: int, 
     """
     margins = {lim.constraint: np.zeros(intervals) for lim in limits}
     report = LimitReport(held=False, tolerance=tolerance)
-    best = None
+    best: tuple[float, Any, Verification, dict[str, np.ndarray]] | None = None
     solves = []
     for k in range(max_rounds + 1):
         exc = excess(ver, limits, intervals)
@@ -128,6 +128,7 @@ def hold_limits(res, ver: Verification, *, limits: list[Limit], intervals: int, 
             report.cancelled = res.status.outcome is Outcome.CANCELLED
             break
         ver = verify(res)
+    assert best is not None  # the first round sets it
     _, res, ver, used = best
     report.max_margin = {c: float(v.max()) for c, v in used.items()}
     report.tightened_intervals = {c: int(np.count_nonzero(v)) for c, v in used.items()}

@@ -188,7 +188,7 @@ def _physical_violation(problem: ReentryProblem, tr: Transcription, res) -> str:
 
 def solve(problem: ReentryProblem, *, initial_guess: InitialGuess | str | None = None,
           on_progress: ProgressFn | None = None, should_stop: StopFn | None = None,
-          seed=None) -> ReentrySolution:  # noqa: ARG001 (deterministic)
+          seed=None) -> ReentrySolution:  # seed unused: deterministic
     """Solve one reentry problem. ``initial_guess``: an :class:`InitialGuess` (warm start, any
     grid), ``"linear"``, ``"simulate"`` or None (the default: simulate)."""
     m = problem.intervals

@@ -97,10 +97,11 @@ def control_table(v: sh.Vehicle, t_nodes, controls, substeps: int) -> np.ndarray
 
 def constants(v: sh.Vehicle) -> np.ndarray:
     """The vehicle's numbers in the order the kernel reads them."""
-    heat_sg = v.heating is not None
+    heating = v.heating
+    heat_sg = heating is not None
     sg_k = 0.0
-    if heat_sg:
-        sg_k = (v.planet.sutton_graves_k if v.heating.k is None else v.heating.k) / math.sqrt(v.heating.nose_radius_m)
+    if heating is not None:
+        sg_k = (v.planet.sutton_graves_k if heating.k is None else heating.k) / math.sqrt(heating.nose_radius_m)
     return np.array([v.mass_kg, v.area_m2, v.atmosphere.rho0_kg_m3, v.atmosphere.scale_height_m,
                      v.planet.radius_m, v.planet.mu_m3_s2, v.planet.omega_rad_s if v.rotating_earth else 0.0,
                      1.0 if v.rotating_earth else 0.0, 1.0 if heat_sg else 0.0, sg_k, G0_MPS2], float)

@@ -59,7 +59,7 @@ def monte_carlo_model(params: dict) -> MCModel:
     def rhs(x, u, s):
         return dyn.eom(x, u, v, np, cd_scale=1.0 + s[0], cl_scale=1.0 + s[1])
 
-    def trace(x, u, s):  # noqa: ARG001 (the heating fit does not depend on the aero errors)
+    def trace(x, u, s):  # s unused: the heating fit does not depend on the aero errors
         return {"altitude_m": x[ALTITUDE], "speed_mps": x[SPEED], "heat_rate_w_m2": dyn.heat_rate(x, u, v, np)}
 
     path = {}

@@ -8,6 +8,7 @@ Held apart from :mod:`solvers.robust_reentry.solver` so that the Monte Carlo mod
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -15,6 +16,9 @@ from solvers.reentry.problem import ReentryProblem, ReentrySolution
 from solvers.common import SolveStatus
 from solvers.models import shuttle as sh
 from solvers.models.reentry_state import NX, Trajectory
+
+if TYPE_CHECKING:
+    from solvers.transcription.multiple_shooting import ShootingResult
 
 NS = 2   # uncertain parameters: relative errors of (CD, CL)
 # IPOPT restarted from a converged neighbour's primal and dual point (stage 2, the confirmation
@@ -127,7 +131,7 @@ class RobustReentrySolution:
     notes: list[str] = field(default_factory=list)
     objective_unit: str = "rad"
     augmented: np.ndarray | None = None   # packed CADET nodes (nz, m+1): the warm start of resolve()
-    shooting: object | None = None        # the NLP result (multipliers): resolve()'s dual warm start
+    shooting: ShootingResult | None = None        # the NLP result (multipliers): resolve()'s dual warm start
 
     @property
     def trajectory(self) -> Trajectory:

@@ -66,6 +66,8 @@ def _sens(problem: "RobustReentryProblem") -> CadetSensitivity:
 def _robust_problem(problem: RobustReentryProblem, cad: CadetSensitivity, *, ipopt: dict | None = None) -> ShootingProblem:
     base, rob = problem.base, problem.robust
     vehicle = base.vehicle
+    if base.max_heat_rate_w_m2 is None:
+        raise ValueError("the robust problem needs a heat-rate limit (max_heat_rate_w_m2)")
     q_max = float(base.max_heat_rate_w_m2)
     nth = cad.n_theta
     hm = _heat_moments(cad, vehicle, q_max)
@@ -153,11 +155,10 @@ def _prediction(problem, cad, t, Z, u, theta) -> Prediction:
 
 
 def solve(problem: RobustReentryProblem, *, initial_guess=None, on_progress: ProgressFn | None = None,
-          should_stop: StopFn | None = None, seed=None) -> RobustReentrySolution:  # noqa: ARG001
+          should_stop: StopFn | None = None, seed=None) -> RobustReentrySolution:  # seed: deterministic
     """DO, then CADET along the DO controls, then the two robust stages."""
     progress = on_progress or (lambda f, msg: None)
     base = problem.base
-    m = base.intervals
     notes: list[str] = []
 
     def sub(lo, hi):
@@ -205,10 +206,11 @@ def solve(problem: RobustReentryProblem, *, initial_guess=None, on_progress: Pro
     # mean with this covariance leave O(1) covariance defects late in the flight, from which
     # IPOPT diverged.
     guess = (do.tf_s, Zdo, u_do)
-    weights = [(tr1, 0.0, 0.0, False, (0.3, 0.6), "robust stage 1 (kJ = kC = 0, no sigma limits)"),
-               (tr, rob.k_objective, rob.k_constraint, True, (0.6, 0.97), "robust stage 2 (full problem)")]
     if tr1 is None:
         weights = [(tr, rob.k_objective, rob.k_constraint, True, (0.3, 0.97), "robust (full problem, direct)")]
+    else:
+        weights = [(tr1, 0.0, 0.0, False, (0.3, 0.6), "robust stage 1 (kJ = kC = 0, no sigma limits)"),
+                   (tr, rob.k_objective, rob.k_constraint, True, (0.6, 0.97), "robust stage 2 (full problem)")]
     res = warm = None
     for trs, kj, kc, limits, span, label in weights:
         x_lb, x_ub, u_lb, u_ub, _, term = _bounds(problem, cad, sigma_limits=limits)

@@ -140,13 +140,13 @@ class BlockDerivatives:
         """``parts``: ``(values MX column, local rows, local cols)`` with global indices per
         value.  Returns the sparse MX matrix whose entry (r, c) sums the values mapped there
         (only ``r <= c`` when ``upper``)."""
-        vals, rows, cols = [], [], []
+        vals, row_parts, col_parts = [], [], []
         for v, r, c in parts:
             vals.append(v)
-            rows.append(r)
-            cols.append(c)
-        rows, cols = np.concatenate(rows), np.concatenate(cols)
-        keep = rows <= cols if upper else np.ones(rows.size, bool)
+            row_parts.append(r)
+            col_parts.append(c)
+        rows, cols = np.concatenate(row_parts), np.concatenate(col_parts)
+        keep = rows <= cols if upper else np.ones(rows.size, np.bool_)
         key = cols * nrow + rows
         uniq, inv = np.unique(key[keep], return_inverse=True)
         sp = ca.Sparsity.triplet(nrow, ncol, list(map(int, uniq % nrow)), list(map(int, uniq // nrow)))

@@ -90,7 +90,7 @@ def digest(nlp: dict) -> str:
     """Content key of an NLP ``{"x", "p", "f", "g"}``: what the compiled derivatives depend on."""
     fn = ca.Function("nlp", [nlp["x"], nlp["p"]], [nlp["f"], nlp["g"]])
     h = hashlib.sha256(fn.serialize().encode())
-    h.update(f"casadi {ca.__version__} {' '.join(FLAGS)}".encode())
+    h.update(f"casadi {ca.CasadiMeta.version()} {' '.join(FLAGS)}".encode())
     return h.hexdigest()[:32]
 
 
@@ -128,7 +128,7 @@ def digest_functions(fns: dict) -> str:
     for name in sorted(fns):
         h.update(name.encode())
         h.update(fns[name].serialize().encode())
-    h.update(f"casadi {ca.__version__} {' '.join(FLAGS)}".encode())
+    h.update(f"casadi {ca.CasadiMeta.version()} {' '.join(FLAGS)}".encode())
     return h.hexdigest()[:32]
 
 
@@ -265,7 +265,10 @@ def compile_async(solver: ca.Function | None, key: str, done, lock=None, *, fns:
     def work():
         ok = False
         try:
-            ok = build_functions(fns, key, lock) if fns is not None else build(solver, key, lock)
+            if fns is not None:
+                ok = build_functions(fns, key, lock)
+            elif solver is not None:
+                ok = build(solver, key, lock)
         finally:
             with _LOCK:
                 callbacks = _PENDING.pop(key, [])

@@ -26,7 +26,7 @@ compiled and cached (:func:`solvers.transcription.nlp.cached_solver`).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable, Sequence
+from typing import Any, Callable, Sequence
 
 import casadi as ca
 import numpy as np
@@ -35,7 +35,8 @@ from solvers.common import ProgressFn, StopFn
 from solvers.transcription.blocks import BlockDerivatives
 from solvers.transcription.nlp import NLPResult, NLPSolver, cached_solver
 
-SymFn = Callable[..., ca.SX]
+# SX in, SX out and MX in, MX out: casadi's types cannot say "the same kind out", so Any
+SymFn = Callable[..., Any]
 
 
 @dataclass(frozen=True)
@@ -195,7 +196,7 @@ class Transcription:
         self.nz = 1 + nx * (m + 1) + nu * self.nu_nodes
         self.solver, self.was_cached = cached_solver(prob.cache_key(), self._build)
         self.ng = self.solver.ng
-        self._g_layout = self.solver.g_layout
+        self._g_layout = self.solver.layout
 
     # -- building -----------------------------------------------------------------------
     def _build(self) -> NLPSolver:
@@ -246,7 +247,7 @@ class Transcription:
         nlp = {"x": z, "p": p, "f": J / prob.objective_scale, "g": ca.vertcat(*g)}
         blocks = self._blocks(interval, layout) if prob.block_derivatives else None
         solver = NLPSolver(nlp, name="multiple_shooting", ipopt=prob.ipopt, blocks=blocks)
-        solver.g_layout = layout
+        solver.layout = layout
         return solver
 
     def _blocks(self, interval: ca.Function, layout: list) -> BlockDerivatives:
@@ -354,7 +355,7 @@ class Transcription:
             hi = upper.get(name, hi)
             lbg.append(np.broadcast_to(np.asarray(lo, float), (n,)))
             ubg.append(np.broadcast_to(np.asarray(hi, float), (n,)))
-        lam = {} if warm is None else {"lam_x0": warm.nlp.lam_x, "lam_g0": warm.nlp.lam_g}
+        lam: dict[str, Any] = {} if warm is None else {"lam_x0": warm.nlp.lam_x, "lam_g0": warm.nlp.lam_g}
         res = self.solver.solve(x0=z0, lbx=lbz, ubx=ubz, lbg=np.concatenate(lbg),
                                 ubg=np.concatenate(ubg), p=np.asarray(p, float),
                                 on_progress=on_progress, should_stop=should_stop,

@@ -19,7 +19,7 @@ import threading
 import time
 from collections import OrderedDict
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Any, Callable
 
 import casadi as ca
 import numpy as np
@@ -128,7 +128,10 @@ class NLPSolver:
         np_ = int(nlp["p"].numel()) if "p" in nlp else 0
         self.nx, self.ng, self.np_ = nx, ng, np_
         self.hook = _IterationHook(f"{name}_hook", nx, ng, np_)
-        opts = {
+        # how the builder that made this solver reads its x and g back (the builder's own type); a cached
+        # solver carries it to the next problem of the same structure
+        self.layout: Any = None
+        opts: dict[str, Any] = {
             "ipopt": {**DEFAULT_IPOPT, **(ipopt or {})},
             "print_time": False,
             "iteration_callback": self.hook,
@@ -181,7 +184,7 @@ class NLPSolver:
         lbg = np.asarray(lbg, float)
         ubg = np.asarray(ubg, float)
         lo, hi = progress_span
-        state = {"iter": 0, "stopped": False, "best": None}
+        state: dict[str, Any] = {"iter": 0, "stopped": False, "best": None}
 
         def handler(out: dict) -> bool:
             it = state["iter"]

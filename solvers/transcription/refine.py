@@ -51,6 +51,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 SAFETY = 0.8          # aim under the accuracy, so one round usually suffices
 RK4_ORDER = 4
@@ -82,6 +83,13 @@ class Mesh:
         return len(self.boundaries) - 1
 
     @property
+    def node_counts(self) -> tuple[int, ...]:
+        """The LGL nodes of each interval (a multiple-shooting mesh has none)."""
+        if self.nodes is None:
+            raise ValueError("a multiple-shooting mesh has no LGL nodes")
+        return self.nodes
+
+    @property
     def widths(self) -> np.ndarray:
         return np.diff(np.asarray(self.boundaries, float))
 
@@ -91,7 +99,7 @@ class Mesh:
         return bool(same_nodes and np.allclose(w, w[0], rtol=1e-12, atol=0.0))
 
 
-def misses(errors: Sequence[float], widths: Sequence[float], target: float) -> np.ndarray:
+def misses(errors: ArrayLike, widths: ArrayLike, target: float) -> np.ndarray:
     """Per interval, how many times its share ``target * width`` its error is (> 1: it misses)."""
     e = np.asarray(errors, float)
     share = target * np.asarray(widths, float)
@@ -146,7 +154,7 @@ def split_counts(errors, widths, target: float, *, order: int = RK4_ORDER, max_s
     return n
 
 
-def subdivide(boundaries: Sequence[float], counts: Sequence[int]) -> tuple[float, ...]:
+def subdivide(boundaries: ArrayLike, counts: Sequence[int] | np.ndarray) -> tuple[float, ...]:
     """The boundaries with interval ``k`` cut into ``counts[k]`` equal parts."""
     b = np.asarray(boundaries, float)
     out = [0.0]
@@ -178,7 +186,7 @@ def refine_lgl(mesh: Mesh, errors, target: float, *, n_min: int = 4, n_max: int 
     r = misses(errors, mesh.widths, target)
     b = np.asarray(mesh.boundaries, float)
     new_b, new_n, changed = [0.0], [], False
-    for k, nk in enumerate(mesh.nodes):
+    for k, nk in enumerate(mesh.node_counts):
         degree = nk - 1
         if r[k] <= 1.0 and k not in force:
             new_b.append(float(b[k + 1]))
@@ -211,7 +219,7 @@ def refine_lgl(mesh: Mesh, errors, target: float, *, n_min: int = 4, n_max: int 
 def lgl_history(mesh: Mesh, errors) -> dict:
     """What :func:`refine_lgl` wants as ``previous`` from this round."""
     b = mesh.boundaries
-    return {(round(b[k], 12), round(b[k + 1], 12)): (mesh.nodes[k], float(errors[k]))
+    return {(round(b[k], 12), round(b[k + 1], 12)): (mesh.node_counts[k], float(errors[k]))
             for k in range(mesh.intervals)}
 
 

@@ -22,6 +22,7 @@ derivatives; one RK4 interval function is built once and ``map``-ped.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -209,7 +210,8 @@ class CadetSystem:
         return ca.Function("cadet_interval", [z0, u0, u1, dt, theta], [z, ca.horzcat(*cols)],
                            ["z0", "u0", "u1", "dt", "theta"], ["z1", "zsub"])
 
-    def propagate(self, *, z0, controls, t_nodes, theta, substeps: int = 10) -> tuple[np.ndarray, np.ndarray]:
+    # self: Any, since CadetSensitivity shares this method (propagate = CadetSystem.propagate)
+    def propagate(self: Any, *, z0, controls, t_nodes, theta, substeps: int = 10) -> tuple[np.ndarray, np.ndarray]:
         """Propagate along given node controls (nu, N+1) at node times (N+1,).
 
         Returns ``(Z, Zsub)``: the packed state at the nodes (nz, N+1) and at every

@@ -211,11 +211,13 @@ def simulate_chunk(spec: dict, seed: int, start_index: int, count: int) -> dict:
     row_of_node = {int(node): row for row, node in enumerate(kept_nodes)}
     traces: dict[str, np.ndarray] = {}
 
+    trace = model.trace
+
     def on_step(k, j, x, u):
         node = 0 if j == 0 else (k + 1 if j == substeps else -1)
         row = row_of_node.get(node)
-        if row is not None:
-            for q, v in model.trace(x, u, s).items():
+        if row is not None and trace is not None:
+            for q, v in trace(x, u, s).items():
                 if q not in traces:
                     traces[q] = np.full((kept_nodes.size, count), np.nan)
                 traces[q][row] = v
@@ -281,11 +283,12 @@ def _merge_traces(parts: list[dict]) -> tuple[dict, dict]:
     envelope: dict = {"t_s": parts[0]["t_s"]}
     histories: dict = {}
     for q in parts[0]["moments"]:
-        acc = None
+        acc: dict | None = None
         for p in parts:
             mom = {"n": p["n"], "mean": np.asarray(p["moments"][q]["mean"], float),
                    "m2": np.asarray(p["moments"][q]["m2"], float)}
             acc = mom if acc is None else _merge_moments(acc, mom)
+        assert acc is not None  # parts is never empty
         std = np.sqrt(acc["m2"] / (acc["n"] - 1)) if acc["n"] > 1 else np.zeros_like(acc["mean"])
         ones = np.ones(len(envelope["t_s"]))  # all samples failed: the moments are scalars
         envelope[q] = {"mean": (acc["mean"] * ones).tolist(), "std": (std * ones).tolist()}

@@ -235,7 +235,7 @@ def test_tmin_is_the_minimum_of_the_time_of_flight(m):
     for lam in lams:
         t0 = _tof(0.0, lam, m)
         tm, xm, d2 = _tmin(lam, m, t0)
-        ref = minimize_scalar(lambda x: _tof(x, lam, m), bounds=(-0.5, 0.5), method="bounded",
+        ref = minimize_scalar(lambda x, lam=lam: _tof(x, lam, m), bounds=(-0.5, 0.5), method="bounded",
                               options={"xatol": 1e-12})
         assert tm <= t0 and d2 > 0.0
         assert tm == pytest.approx(min(ref.fun, t0), rel=1e-11), lam

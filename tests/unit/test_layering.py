@@ -148,7 +148,7 @@ def test_the_import_contracts_fail_on_a_planted_violation(tmp_path, planted, con
     (tmp_path / "fakesolvers" / "core.py").write_text(planted or "import math\n")
     (tmp_path / "fakeapp" / "kinds" / "one.py").write_text("")
     (tmp_path / "fakeapp" / "kinds" / "two.py").write_text("" if planted else "from fakeapp.kinds import one\n")
-    (tmp_path / "pyproject.toml").write_text(textwrap.dedent(f"""
+    (tmp_path / "pyproject.toml").write_text(textwrap.dedent("""
         [tool.importlinter]
         root_packages = ["fakesolvers", "fakeapp"]
 

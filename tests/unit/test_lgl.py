@@ -44,7 +44,7 @@ def test_diff_matrix_differentiates_degree_n_minus_1_exactly(n):
 @pytest.mark.parametrize("n", [4, 10, 30])
 def test_summation_by_parts_identity(n):
     # W D + (W D)^T = diag(-1, 0, ..., 0, 1): the identity behind the costate mapping
-    x, w, D = lgl_nodes(n), lgl_weights(n), lgl_diff_matrix(n)
+    w, D = lgl_weights(n), lgl_diff_matrix(n)
     B = np.zeros((n, n))
     B[0, 0], B[-1, -1] = -1.0, 1.0
     np.testing.assert_allclose(w[:, None] * D + (w[:, None] * D).T, B, atol=1e-10 * n)
@@ -97,8 +97,8 @@ def test_integral_form_solves_a_control_free_ode_where_the_differential_form_can
                                        seg_duration=ca.DM(2.0), nodes=n, segments=1, form=form)
         F = ca.Function("F", [Xf], [ca.vec(d)])
         J = ca.Function("J", [Xf], [ca.jacobian(ca.vec(d), Xf)])
-        sol = least_squares(lambda z: np.asarray(F(z)).ravel(), np.ones(n - 1),
-                            jac=lambda z: np.asarray(J(z)), xtol=1e-15, ftol=1e-15, gtol=1e-15)
+        sol = least_squares(lambda z, F=F: np.asarray(F(z)).ravel(), np.ones(n - 1),
+                            jac=lambda z, J=J: np.asarray(J(z)), xtol=1e-15, ftol=1e-15, gtol=1e-15)
         res[form] = (np.max(np.abs(sol.fun)), sol.x)
     assert res["integral"][0] < 1e-13
     np.testing.assert_allclose(res["integral"][1], np.exp(-(lgl_nodes(n)[1:] + 1.0)), rtol=1e-7)

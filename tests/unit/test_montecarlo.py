@@ -129,7 +129,7 @@ def test_samples_against_solve_ivp():
     U = np.array(spec["controls"])
     xf = propagate(model, x0=x0, s=s, t_nodes=t, controls=U, substeps=10)
     for i in range(5):
-        sol = solve_ivp(lambda tt, y: _oscillator_rhs(y[:, None], [[np.interp(tt, t, U[0])]], s[:, i:i + 1])[:, 0],
+        sol = solve_ivp(lambda tt, y, i=i: _oscillator_rhs(y[:, None], [[np.interp(tt, t, U[0])]], s[:, i:i + 1])[:, 0],
                         (t[0], t[-1]), x0[:, i], method="DOP853", rtol=1e-11, atol=1e-12, max_step=0.1)
         np.testing.assert_allclose(xf[:, i], sol.y[:, -1], rtol=0, atol=1e-6)
 

@@ -90,7 +90,7 @@ def test_csv_tables_round_trip_the_json_numbers(solved, name):
         return
     tables = tables_for(kind, outcome.result)
     assert tables
-    for table, cols in tables.items():
+    for cols in tables.values():
         rows = list(csv.reader(io.StringIO(to_csv(cols))))
         assert rows[0] == list(cols)
         if kind == "ocp" and outcome.result.get("phases"):  # several phases stacked, a phase column first

@@ -135,7 +135,7 @@ def test_monte_carlo_samples_against_solve_ivp(monte_carlo, solved):
     for i in range(3):
         y = x0[:, i]
         for k in range(t.size - 1):
-            def f(tt, yy, k=k):
+            def f(tt, yy, k=k, i=i):
                 u = U[:, k] + (tt - t[k]) / (t[k + 1] - t[k]) * (U[:, k + 1] - U[:, k])
                 return dyn.eom(yy, u, v, np, cd_scale=1 + s[0, i], cl_scale=1 + s[1, i])
             y = solve_ivp(f, (t[k], t[k + 1]), y, method="DOP853", rtol=1e-10, atol=1e-9).y[:, -1]

@@ -16,7 +16,7 @@ def test_every_preset_has_an_example_and_every_example_resolves():
     named = {(e["value"]["kind"], e["value"].get("preset")) for e in examples.values()}
     assert {(p.kind, name) for name, p in PRESETS.items()} <= named
     assert {kind for kind, _ in named} == set(KINDS)
-    for name, example in examples.items():
+    for example in examples.values():
         body = TypeAdapter(JobSubmission).validate_python(example["value"])
         spec = KINDS[body.kind]
         overrides = body.params.model_dump(exclude_unset=True) if body.params is not None else None

@@ -94,5 +94,6 @@ async def last_iterate_plot(job_id: str, name: str, db: DatabaseDep, principal: 
         png = await run_in_threadpool(lambda: plot_defs.render(plot, result=result, params=job.params, title=title,
                                                                fmt="png"))
     except (KeyError, TypeError, ValueError, IndexError) as exc:
-        raise HTTPException(status_code=404, detail=f"plot {name} cannot be drawn from this last iterate: {exc}")
+        raise HTTPException(status_code=404,
+                            detail=f"plot {name} cannot be drawn from this last iterate: {exc}") from exc
     return Response(png, media_type="image/png", headers={"Cache-Control": "private, max-age=3600"})

@@ -80,10 +80,12 @@ def submit_job(
                                        queue=quota.queue_for(submission.kind, cost, settings), admit=admit,
                                        request_id=logs.current("request_id"))
     except quota.QuotaExceeded as exc:
-        raise HTTPException(status_code=429, detail=exc.message, headers={"Retry-After": str(exc.retry_after_s)})
+        raise HTTPException(status_code=429, detail=exc.message,
+                            headers={"Retry-After": str(exc.retry_after_s)}) from None
     except jobs.IdempotencyConflict:
         # draft-ietf-httpapi-idempotency-key-header: reuse with another payload is a 422.
-        raise HTTPException(status_code=422, detail="Idempotency-Key was already used for a different request body")
+        raise HTTPException(status_code=422,
+                            detail="Idempotency-Key was already used for a different request body") from None
     if created:
         # the API's line of this request for the job; the worker logs the same request_id with the job's lines
         log.info("job %s submitted (kind %s, queue %s)", job.id, job.kind, job.queue)
@@ -126,7 +128,7 @@ def get_job(job_id: str, request: Request, principal: PrincipalDep):
 def get_result(job_id: str, db: DatabaseDep, principal: PrincipalDep,
                include: Annotated[list[Literal["scan", "samples"]], Query(
                    description="Full arrays the default body thins: `scan` (intercept delta-v scan), "
-                               "`samples` (robust Monte Carlo sample traces)")] = [],
+                               "`samples` (robust Monte Carlo sample traces)")] = [],  # noqa: B006 (FastAPI copies it per request)
                if_none_match: Annotated[str | None, Header(max_length=200)] = None):
     job = visible_job(db, job_id, principal)
     result = jobs.get_result(db, job_id) if job.status in ("succeeded", "failed", "cancelled") else None

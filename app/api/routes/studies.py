@@ -165,7 +165,8 @@ def submit_study(body: Annotated[StudySubmission, Body(openapi_examples={
         quota.check_quota(db, settings, owner=principal.owner,
                           cost=sum(costs) if spec_body["mode"] == "independent" else max(costs))
     except quota.QuotaExceeded as exc:
-        raise HTTPException(status_code=429, detail=exc.message, headers={"Retry-After": str(exc.retry_after_s)})
+        raise HTTPException(status_code=429, detail=exc.message,
+                            headers={"Retry-After": str(exc.retry_after_s)}) from None
     study, created = studies.create_study(
         db, kind=spec.kind, preset=spec_body.get("preset"), label=spec_body.get("label"), base_params=base,
         sweeps=spec_body["sweeps"], mode=spec_body["mode"], points=points,

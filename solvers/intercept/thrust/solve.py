@@ -3,7 +3,9 @@ refine, solve again; then the solution in SI units with its diagnostics."""
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import replace
+from functools import partial
 
 import numpy as np
 
@@ -17,7 +19,13 @@ from solvers.intercept.thrust.problem import (FiniteThrustProblem, FiniteThrustS
                                               TrajectoryGuess, nondimensionalise)
 from solvers.transcription.nlp import cached_solver
 
+
+def _interpolated_primer(t_nodes: np.ndarray, lam_v: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
+    """The primer vector, -lambda_v, interpolated in time (where a new burn is placed)."""
+    return lambda tq: -np.stack([np.interp(tq, t_nodes, row) for row in lam_v])
+
 # ----------------------------------------------------------------------------- solve
+
 
 def solve_finite_thrust(problem: FiniteThrustProblem, *, initial_guess: ImpulsiveGuess | TrajectoryGuess,
                         on_progress: ProgressFn | None = None,
@@ -49,9 +57,10 @@ def solve_finite_thrust(problem: FiniteThrustProblem, *, initial_guess: Impulsiv
     new_burns = 0
     best = None
     res = None
+    lam: np.ndarray | None = None
     for r in range(rounds):
         solver, cached = cached_solver(("intercept_lgl", layout.key(), opts.max_iterations),
-                                       lambda: build_nlp(layout, opts.max_iterations))
+                                       partial(build_nlp, layout, opts.max_iterations))
         if not cached:
             build_time += solver.build_time_s
         lbx, ubx, lbg, ubg = nlp_bounds(layout, s, problem.scenario.free_final_time)
@@ -94,14 +103,13 @@ def solve_finite_thrust(problem: FiniteThrustProblem, *, initial_guess: Impulsiv
         if not opts.refine or r >= rounds - 3:
             break
         nxt = None
+        primer: Callable[[np.ndarray], np.ndarray] | None = None
         if opts.structure == "switching" and new_burns < opts.max_new_burns:
             nxt = missing_burn(layout, mesh, X, U, tf, s, lam)
             if nxt is not None:
                 new_burns += 1
                 entry["next"] = "burn added where the switching function is positive on a coast"
-                lam_v = lam[3:6]
-                t_nodes = mesh.node_fractions().ravel() * tf
-                primer = lambda tq: -np.stack([np.interp(tq, t_nodes, row) for row in lam_v])  # noqa: E731
+                primer = _interpolated_primer(mesh.node_fractions().ravel() * tf, lam[3:6])
         refined_before = [h for h in history[:-1] if h.get("next", "").startswith("segments")]
         if (nxt is None and refined_before
                 and verification["miss_distance_m"] > 0.5 * refined_before[-1]["miss_distance_m"]):
@@ -114,7 +122,6 @@ def solve_finite_thrust(problem: FiniteThrustProblem, *, initial_guess: Impulsiv
             pos = np.linalg.norm(d[:3], axis=0) * s.sc.length_m
             entry["max_segment_defect_m"] = float(np.max(pos))
             nxt = refined_layout(layout, pos, opts)
-            primer = None
             if nxt is not None:
                 entry["next"] = "segments doubled on the arcs with the largest defects"
         if nxt is None:
@@ -122,6 +129,7 @@ def solve_finite_thrust(problem: FiniteThrustProblem, *, initial_guess: Impulsiv
         X, U = resample(layout, sigma, X, U, tf, nxt, primer)
         layout, sigma = nxt, np.asarray(nxt.sigma)
 
+    assert res is not None  # rounds >= 1
     if best is not None and res is not best[0]:
         res_last = res
         res, layout, X, U, tf, verification, lam, i_tf = best
