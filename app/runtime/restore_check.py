@@ -88,11 +88,12 @@ def reference(revision: str) -> Reference:
         try:
             insp = inspect(engine)
             tables = frozenset(insp.get_table_names())
-            constraints, indexes = set(), set()
+            constraints: set[tuple[str, str]] = set()
+            indexes: set[str] = set()
             for t in tables:
                 named = [insp.get_pk_constraint(t)] + insp.get_unique_constraints(t) + insp.get_foreign_keys(t)
-                constraints |= {(t, c["name"]) for c in named if c.get("name")}
-                indexes |= {i["name"] for i in insp.get_indexes(t) if i.get("name")}
+                constraints |= {(t, name) for c in named if (name := c.get("name"))}
+                indexes |= {name for i in insp.get_indexes(t) if (name := i.get("name"))}
         finally:
             engine.dispose()
     return Reference(objects, tables, frozenset(constraints), frozenset(indexes))

@@ -104,7 +104,8 @@ def coarse_least_peak(problem, guess, *, should_stop=None) -> dict | None:
     limit = problem.max_heat_rate_w_m2
     tol = problem.limit_tolerance or 0.0
     p = param_vector(problem)
-    grids, ratio, peak_guess = [], None, 2.0
+    grids: list[dict] = []
+    ratio, peak_guess = None, 2.0
     for m in (COARSE_INTERVALS, 2 * COARSE_INTERVALS):
         pr = dataclasses.replace(problem, intervals=m, substeps=COARSE_SUBSTEPS)
         if grids:
