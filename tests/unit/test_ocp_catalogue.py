@@ -36,6 +36,10 @@ WHY = {
     "scalar-lq-riccati": "smooth exponential control; RK4 on 20 intervals gives ~1e-8 of the closed form (1e-7)",
     "tumor-two-phases": "the switch is a phase boundary: 7571.67003 on every grid from 20 + 40 to 80 + 160 "
                         "intervals, 1.6e-3 below the published figure (2e-3)",
+    "van-der-pol-state-limit": "junctions of the state limit inside intervals: 1.2e-5 at 100 intervals, "
+                               "2.3e-6 at 200 and 400 (5e-5)",
+    "free-flying-robot": "bang-bang thrusts switching inside constant intervals: +2.3e-3, +1.5e-4, -1.0e-4 at "
+                         "120, 240, 480 intervals (1e-3)",
 }
 
 

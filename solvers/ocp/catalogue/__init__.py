@@ -25,6 +25,8 @@ MODULES = (
     "isoperimetric",
     "scalar_lq_riccati",
     "tumor_two_phases",
+    "van_der_pol_state_limit",
+    "free_flying_robot",
 )
 
 
