@@ -7,15 +7,14 @@ shutdown gives the lease up, a killed worker's lease expires after ``recovery_le
 
 Pool children are forked from this process while the thread runs (a child is replaced after
 ``worker_max_tasks_per_child`` jobs or when it dies).  The thread does not exist in a child; what it
-owns must not be used there: its database engine is its own (not the cached one the tasks use) and a
-child drops its pooled connections without closing them (SQLAlchemy's ``dispose(close=False)``, as its
-documentation prescribes for forks), and redis-py's pools reconnect on a change of pid by themselves.
+owns must not be used there: its database engine is its own (not the cached one the tasks use), and a
+child drops every Database's pooled connections without closing them (app.runtime.db does it for every
+Database at a fork), and redis-py's pools reconnect on a change of pid by themselves.
 ``TRAJLAB_RECOVERY_IN_WORKER=false`` leaves recovery to ``trajlab recover`` and ``trajlab serve``.
 """
 from __future__ import annotations
 
 import logging
-import os
 import threading
 
 from celery import current_app, signals
@@ -33,8 +32,7 @@ def start(**_) -> None:
     settings = get_settings()
     if not settings.recovery_in_worker or _running:
         return
-    db = Database(settings.database_url, settings)
-    os.register_at_fork(after_in_child=lambda: db.engine.dispose(close=False))
+    db = Database(settings.database_url, settings)   # forgotten in forked children by app.runtime.db
     worker_app = current_app._get_current_object()
     recovery = Recovery(settings, db)
     worker_app.set_current()  # Recovery's producer-only Celery app made itself the current one: the worker's is

@@ -31,11 +31,20 @@ found by TCP keepalives; a query the server runs too long is cancelled by ``stat
 Without them a call over a cut link waited for the kernel to give up (``tcp_retries2``: about 15
 minutes) and the worker's bounded store retry never ran.  Migrations (``migrations/env.py``) connect
 without the statement timeout.
+
+No connection crosses a fork (issue 36).  Celery's main process opens the database (``JobTask.on_failure``,
+the recovery thread) and forks pool children later; a child that used an inherited pooled connection would
+share its socket with the parent, and the two interleave protocol messages on one backend.  Every
+:class:`Database` is therefore forgotten in a forked child: its pool dropped without closing the parent's
+connections (SQLAlchemy's ``dispose(close=False)``, as its documentation prescribes for forks), and its
+SQLite write lock made anew (one held by another thread of the parent at the fork would never be released).
 """
 from __future__ import annotations
 
+import os
 import threading
 import time
+import weakref
 from contextlib import contextmanager
 from typing import TYPE_CHECKING, Iterator
 
@@ -137,6 +146,12 @@ class Database:
         self._write_engine = self.engine.execution_options(sqlite_immediate=True) if self.is_sqlite else self.engine
         self._write = sessionmaker(self._write_engine, expire_on_commit=False)
         self._write_lock = threading.Lock() if self.is_sqlite else None
+        _EVERY_DATABASE.add(self)
+
+    def _after_fork_in_child(self) -> None:
+        self.engine.dispose(close=False)   # the parent's connections stay open, for the parent
+        if self._write_lock is not None:
+            self._write_lock = threading.Lock()
 
     @contextmanager
     def read(self) -> Iterator[Session]:
@@ -185,6 +200,17 @@ class Database:
     def dispose(self) -> None:
         self.engine.dispose()
 
+
+# Every Database of this process, held weakly: a forked child forgets their pooled connections (module docstring)
+_EVERY_DATABASE: weakref.WeakSet[Database] = weakref.WeakSet()
+
+
+def _forget_connections_in_child() -> None:
+    for db in list(_EVERY_DATABASE):
+        db._after_fork_in_child()
+
+
+os.register_at_fork(after_in_child=_forget_connections_in_child)
 
 _DATABASES: dict[str, Database] = {}
 _DB_LOCK = threading.Lock()
