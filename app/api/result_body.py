@@ -2,9 +2,9 @@
 combined into one schema for the OpenAPI document.
 
 The result does not carry its kind, so the union has no discriminator: the models are listed so
-that a generated client, which tries them in order, lands on the right one (every model has
-required fields the others lack; ``robust_reentry`` comes before ``reentry``, whose fields it
-extends).
+that a generated client, which tries them in order, lands on the right one.  The order is derived, not
+declared: a model whose required fields include all of another's (the robust reentry result extends the
+reentry one) is tried before it; otherwise the registry's order holds.
 """
 from __future__ import annotations
 
@@ -19,14 +19,20 @@ from app.kinds import KINDS
 
 log = logging.getLogger("trajlab.results")
 
-# Tried in this order by generated clients: a model whose required fields are a superset first.
-ORDER = ("robust_reentry", "reentry", "midcourse", "intercept")
+
+def _required(model: type[BaseModel]) -> frozenset[str]:
+    return frozenset(name for name, f in model.model_fields.items() if f.is_required())
 
 
 def result_models() -> dict[str, type[BaseModel]]:
-    """Each registered kind's result model, in :data:`ORDER`."""
-    models = {k: KINDS[k].result_model for k in ORDER if k in KINDS and KINDS[k].result_model is not None}
-    models.update({k: s.result_model for k, s in KINDS.items() if k not in models and s.result_model is not None})
+    """Each registered kind's result model, in the order generated clients try them: a model is listed
+    only once no model left extends it (its required fields a strict superset of this one's)."""
+    left = {k: s.result_model for k, s in KINDS.items() if s.result_model is not None}
+    models: dict[str, type[BaseModel]] = {}
+    while left:
+        kind = next(k for k, m in left.items()
+                    if not any(_required(o) > _required(m) for j, o in left.items() if j != k))
+        models[kind] = left.pop(kind)
     return models
 
 

@@ -123,27 +123,106 @@ class Preset:
     params: dict[str, Any]   # partial parameters in API units, deep-merged onto the defaults
 
 
-@dataclass
+@dataclass(frozen=True)
+class MemoryModel:
+    """A job's peak resident memory from its resolved params, as measured for the kind
+    (:mod:`app.service.job_memory` refuses a job past ``TRAJLAB_JOB_MEMORY_MB`` with a 422 by it).
+
+    ``floor_mb`` is the resident memory of the kind's preset in a fresh pool process (libraries, the
+    solver's fixed structures); a kind whose memory grows with its size adds ``per_unit_mb`` per unit of
+    ``size(params)`` past ``floor_size`` (the preset's size), and ``grows_with`` names that size in the 422.
+    """
+
+    floor_mb: float
+    size: Callable[[dict], float] | None = None
+    floor_size: float = 0.0
+    per_unit_mb: float = 0.0
+    grows_with: str = ""
+
+
+@dataclass(frozen=True)
+class CompareSeries:
+    """The one curve that best shows a job of a kind on the console's compare plot."""
+
+    x: list
+    y: list
+    x_label: str
+    y_label: str
+    style: str = "-"
+
+
+@dataclass(frozen=True)
+class OemExport:
+    """A kind's trajectory as a CCSDS OEM (``GET /v1/jobs/{id}/result.oem``; the writer is
+    :func:`app.results.oem.write_oem`).
+
+    ``available(result)``: whether the result has a trajectory to write (else a 404).
+    ``prepare(result, params, *, object_name, point, trajectory) -> (view, make)``: ``view`` names the
+    file among the job's (ETag, cache key and file name; ``()`` for a kind with one file), ``make()``
+    writes its text; raises ``LookupError`` with a user-facing message for a choice the result does not
+    have (a 404).  ``point`` and ``trajectory`` are the route's query parameters; a kind with one
+    trajectory ignores them.
+    """
+
+    available: Callable[[dict], bool]
+    prepare: Callable[..., tuple[tuple[str, ...], Callable[[], str]]]
+
+
+@dataclass(kw_only=True)
 class KindSpec:
     """Everything the service needs to know about one kind: adding a kind is its
     package (``app/kinds/<kind>/``, with ``solvers/<kind>/``) plus a line in the registry
-    (``app/kinds/__init__.py``)."""
+    (``app/kinds/__init__.py``).  The shared code asks these fields and never lists kinds by name
+    (``tests/unit/test_kind_names.py``); ``docs/architecture.md`` "How to add a kind" walks through them.
+
+    ``cost`` and ``memory`` have no default: a kind that forgot them would be free under the quota and
+    never refused for memory, so a new kind states both.
+    """
 
     kind: str
     params_model: type[StrictModel]
     run: Callable[[Any, JobContext], RunOutcome]
+    # Estimated cost in app.service.quota's work units from the resolved params (about one RK4 step of one
+    # shooting interval of the reentry NLP per unit): the per-owner budget and the heavy-queue choice.
+    cost: Callable[[dict], float]
+    # The job's memory from its resolved params (app.service.job_memory: a 422 past TRAJLAB_JOB_MEMORY_MB).
+    memory: MemoryModel
     presets: list[Preset] = field(default_factory=list)
     summary: str = ""
+    # Every job of the kind on the heavy queue, whatever its cost (otherwise: cost past TRAJLAB_HEAVY_COST).
+    always_heavy: bool = False
     # Soft Celery time limit; TRAJLAB_TIME_LIMIT_<KIND>_S overrides it (Settings.time_limit_s).
     time_limit_s: float = 600.0
     # The few numbers the CLI, the console and trade tables show (app.service.summary); None: a generic pick.
     key_numbers: Callable[[dict], dict] | None = None
-    # Typed model of the stored result, for documentation and validation; None: untyped JSON.
+    # A key number whose better direction never depends on the params, (dotted key, "min" | "max"): a study
+    # keeps each point's best job by it and retries a point from a neighbour that did better; None: none.
+    fixed_objective: tuple[str, str] | None = None
+    # Typed model of the stored result, for documentation and validation; None: untyped JSON.  Its place in
+    # the OpenAPI union is derived (app.api.result_body: a model that extends another's is tried first).
     result_model: type[BaseModel] | None = None
-    # Estimated cost in app.service.quota's work units from the resolved params; None: app.service.quota's own table.
-    cost: Callable[[dict], float] | None = None
     # The plots of one result (app.results.plots.PlotDef list; app/kinds/<kind>/plots.py); None: no plots.
     plots: Callable[[dict], list] | None = None
+    # The CSV tables of one result, name -> (result -> columns or None) (app.results.tables has the pickers
+    # every kind uses: columns_at("trajectory")); GET .../result.csv?table=name serves them.
+    tables: dict[str, Callable[[dict], dict | None]] = field(default_factory=dict)
+    # The default GET .../result body, (result, include) -> body with its bulkiest arrays thinned unless
+    # ``include`` asks for them (app.results.compact); None: the stored result as is.
+    compact: Callable[[dict, set[str]], dict] | None = None
+    # The trajectory as a CCSDS OEM; None: the kind has none.
+    oem: OemExport | None = None
+    # The params field a stored job's id goes in to warm-start a new job from it (a dotted path): the
+    # console's "warm start" button and a study's continuation fill it in; None: the kind takes no warm start.
+    warm_start_field: str | None = None
+    # The curve of one result on the console's compare plot; ValueError (a 422) for a result without it;
+    # None: the kind's jobs cannot be compared.
+    compare: Callable[[dict], CompareSeries] | None = None
+    # The params are a document (names, expressions, lists) rather than settings: the console's "New job"
+    # edits them as JSON instead of a form of fields.
+    json_editor: bool = False
+    # Extra sections of the console's job page the kind's results fill (app/web/static/job.js):
+    # "front_table" (the Pareto-front points with a choice of point for the OEM download).
+    console_extras: tuple[str, ...] = ()
     # The headline numbers of one result, (result, params) -> list[app.kinds.headlines.Headline]
     # (app/kinds/<kind>/headlines.py): what the CLI, the console, the job list and the report lead with.
     headlines: Callable[[dict, dict | None], list] | None = None

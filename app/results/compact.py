@@ -1,18 +1,19 @@
 """The default ``GET /result`` body: the stored result with its bulkiest arrays thinned.
 
 The stored result keeps everything; ``?include=scan`` / ``?include=samples`` ask for the full
-arrays.  The intercept delta-v scan (16,161 points, 92% of the body) is thinned to every local
-minimum and maximum plus a uniform subsample, so the curve keeps its shape and every minimum;
-the robust Monte Carlo keeps 20 of its sample traces per design.
+arrays.  Each kind says what it thins (``KindSpec.compact``; the registry hands it over with
+:func:`register_compaction`, this machinery never imports a kind): a long curve goes through
+:func:`thin_curve`, which keeps every local minimum and maximum plus a uniform subsample, so the
+curve keeps its shape and every minimum.
 """
 from __future__ import annotations
 
-import copy
+from typing import Callable
 
 import numpy as np
 
-SCAN_POINTS = 300  # with the extrema and the finite-thrust block the default preset stays under 50 kB
-TRACES = 20
+SCAN_POINTS = 300  # with the extrema and the finite-thrust block the intercept preset stays under 50 kB
+_SOURCES: dict[str, Callable[[dict, set[str]], dict] | None] = {}
 
 
 def thin_curve(x: list, y: list, points: int = SCAN_POINTS) -> tuple[list, list]:
@@ -34,21 +35,13 @@ def thin_curve(x: list, y: list, points: int = SCAN_POINTS) -> tuple[list, list]
     return [x[i] for i in idx], [y[i] for i in idx]
 
 
+def register_compaction(kind: str, compact_body: Callable[[dict, set[str]], dict] | None) -> None:
+    """Make ``compact_body`` the default body of ``kind`` (called by the registry, :mod:`app.kinds`)."""
+    _SOURCES[kind] = compact_body
+
+
 def compact(kind: str, result: dict, include: set[str]) -> dict:
-    if kind == "intercept" and "scan" not in include:
-        scan = (result.get("impulsive") or {}).get("scan")
-        if scan and len(scan.get("t_man_s") or []) > SCAN_POINTS:
-            result = copy.copy(result)
-            result["impulsive"] = dict(result["impulsive"])
-            t, dv = thin_curve(scan["t_man_s"], scan["delta_v_mps"])
-            result["impulsive"]["scan"] = {"t_man_s": t, "delta_v_mps": dv, "points_stored": len(scan["t_man_s"]),
-                                           "thinned": "every local minimum and maximum plus an even subsample; "
-                                                      "?include=scan returns every point"}
-    if kind == "robust_reentry" and "samples" not in include and isinstance(result.get("monte_carlo"), dict):
-        result = copy.copy(result)
-        mc = result["monte_carlo"] = dict(result["monte_carlo"])
-        for design, block in mc.items():
-            if isinstance(block, dict) and isinstance(block.get("sample_traces"), dict):
-                block = mc[design] = dict(block)
-                block["sample_traces"] = {q: v[:TRACES] for q, v in block["sample_traces"].items()}
-    return result
+    """The default body of a ``kind`` result: what its ``KindSpec.compact`` keeps unless ``include`` asks
+    for the full arrays; the stored result itself for a kind that thins nothing."""
+    thin = _SOURCES.get(kind)
+    return result if thin is None else thin(result, include)

@@ -1,6 +1,6 @@
-"""CCSDS Orbit Ephemeris Messages (OEM 2.0, KVN): the writer the kinds' exports share
-(:mod:`app.kinds.intercept.oem`, the finite-thrust interceptor; :mod:`app.kinds.midcourse.oem`, a
-front point's transfer), and which results have one.
+"""CCSDS Orbit Ephemeris Messages (OEM 2.0, KVN): the writer the kinds' exports share (a kind that has a
+trajectory to write declares ``KindSpec.oem``, an :class:`app.kinds.base.OemExport`, in its own
+``oem`` module).
 
 Frame: Earth-centred inertial (``REF_FRAME = EME2000``, ``CENTER_NAME = EARTH``).  The parameters
 have no calendar epoch (t0 = 0), so t0 is written as J2000 (2000-01-01T12:00:00 TDB): a reader
@@ -29,14 +29,6 @@ def spaced(t: np.ndarray, *, min_step_s: float) -> np.ndarray:
         if ti - last >= min_step_s:
             keep[i], last = True, ti
     return keep
-
-
-def has_oem(kind: str, result: dict) -> bool:
-    """Whether the job has a trajectory to write (intercept with a finite-thrust solution, or a
-    midcourse front: :mod:`app.kinds.midcourse.oem`)."""
-    if kind == "midcourse":
-        return bool(result.get("pareto_front"))
-    return kind == "intercept" and bool(((result.get("finite_thrust") or {}).get("trajectory") or {}).get("t_s"))
 
 
 def write_oem(segments: list[tuple[np.ndarray, np.ndarray, np.ndarray]], *, object_name: str,

@@ -2,19 +2,12 @@
 
 The cost is a size measure in "work units", not a time: one unit is about one
 RK4 step of one shooting interval of the reentry NLP, so the Betts reentry
-preset (100 intervals x 2 substeps) costs 200.  Each kind's formula grows with
-the parameters that drive its run time:
-
-* ``reentry``: intervals x substeps;
-* ``robust_reentry``: 10 x intervals x substeps (18 sensitivity equations per
-  state, three continuation stages) x (1 + Monte Carlo samples / 1000);
-* ``midcourse``: optimize: population x generations x max(1, dispersion samples) / 5
-  (one J2 propagation per member and generation); evaluate: schedules x samples;
-* ``intercept``: scan and porkchop points / 100, plus 200 per finite-thrust
-  mesh (1 + max_refinements), twice that with a free final time;
-* a kind that declares ``KindSpec.cost`` (``ocp``: intervals x steps per interval x (states +
-  controls) x the expressions' size, scaled so that the Betts shuttle written as an ocp costs what
-  the reentry kind's does; ``app.kinds.ocp.kind.cost``).
+preset (100 intervals x 2 substeps) costs 200.  Each kind declares its formula
+(``KindSpec.cost``), growing with the parameters that drive its run time
+(the reentry family: intervals x substeps; ``midcourse``: population x
+generations; ``intercept``: scan points and finite-thrust meshes; ``ocp``:
+steps x states and controls x the expressions' size; each kind's ``cost``
+docstring has its formula).
 
 A submission is refused with 429 (and ``Retry-After``) when its owner already
 has ``max_queued_per_owner`` queued jobs, ``max_active_per_owner`` queued plus
@@ -26,8 +19,9 @@ each kind bound it, and refusing it would refuse it forever.  With
 (params and compressed results: ``jobs.stored_bytes``, app.service.storage) until some are deleted.
 With auth off (one local user, owner None) no quota applies.
 
-Jobs costing more than ``heavy_cost``, and every ``robust_reentry``, go to the
-heavy queue, so quick jobs never wait behind them (workers per queue: README).
+Jobs costing more than ``heavy_cost``, and every job of a kind that says so
+(``KindSpec.always_heavy``), go to the heavy queue, so quick jobs never wait
+behind them (workers per queue: README).
 """
 from __future__ import annotations
 
@@ -41,64 +35,23 @@ from app.service.broker import QUEUE_HEAVY, QUEUE_JOBS
 from app.runtime.db import Database
 from app.runtime.settings import Settings
 
-ALWAYS_HEAVY = frozenset({"robust_reentry"})
-
-
-def _reentry_cost(p: dict) -> float:
-    grid = p.get("grid") or {}
-    # with accuracy, each refinement round may solve again (on more intervals), as ocp's cost counts
-    rounds = 1.0 + (float(grid.get("max_refinements", 8)) if p.get("accuracy") else 0.0)
-    return float(grid.get("intervals", 100)) * float(grid.get("substeps", 2)) * rounds
-
-
-def _robust_cost(p: dict) -> float:
-    samples = float((p.get("monte_carlo") or {}).get("samples", 0))
-    return 10.0 * _reentry_cost(p) * (1.0 + samples / 1000.0)
-
-
-def _midcourse_cost(p: dict) -> float:
-    samples = max(1.0, float((p.get("dispersion") or {}).get("samples", 1)))
-    if p.get("mode") == "evaluate":
-        return float(len(p.get("schedules") or [])) * samples
-    return float(p.get("population", 100)) * float(p.get("generations", 500)) * samples / 5.0
-
-
-def _intercept_cost(p: dict) -> float:
-    cost = 0.0
-    methods = p.get("methods") or []
-    if "impulsive" in methods:
-        scan = p.get("scan") or {}
-        start = float(scan.get("t_start_s") or 0.0)
-        end = scan.get("t_end_s") or p.get("intercept_time_s") or 0.0
-        step = float(scan.get("step_s") or 1.0)
-        cost += max(0.0, float(end) - start) / step / 100.0
-        porkchop = p.get("porkchop") or {}
-        if porkchop.get("enabled"):
-            cost += float(porkchop.get("t_man_points", 0)) * float(porkchop.get("t_intercept_points", 0)) / 100.0
-    if "finite_thrust" in methods:
-        meshes = 1.0 + float((p.get("finite_thrust") or {}).get("max_refinements", 3))
-        cost += 200.0 * meshes * (2.0 if p.get("free_final_time") else 1.0)
-    return cost
-
-
-_COSTS = {"reentry": _reentry_cost, "robust_reentry": _robust_cost,
-          "midcourse": _midcourse_cost, "intercept": _intercept_cost}
-
 
 def estimate_cost(kind: str, params: dict) -> float:
-    """Work units of a job from its resolved parameters (see the module docstring)."""
-    if kind in _COSTS:
-        cost = _COSTS[kind](params)
-    else:  # a kind that declares its own (KindSpec.cost)
-        from app.kinds import KINDS
+    """Work units of a job from its resolved parameters (``KindSpec.cost``; see the module docstring); 0 for
+    a kind this process does not know (a job row left by a kind since removed)."""
+    from app.kinds import KINDS   # on first use: importing the quota loads no kind package
 
-        own = getattr(KINDS.get(kind), "cost", None)
-        cost = float(own(params)) if own is not None else 0.0
+    spec = KINDS.get(kind)
+    cost = float(spec.cost(params)) if spec is not None else 0.0
     return cost if math.isfinite(cost) else math.inf
 
 
 def queue_for(kind: str, cost: float, settings: Settings) -> str:
-    return QUEUE_HEAVY if kind in ALWAYS_HEAVY or cost > settings.heavy_cost else QUEUE_JOBS
+    from app.kinds import KINDS
+
+    spec = KINDS.get(kind)
+    always = spec is not None and spec.always_heavy
+    return QUEUE_HEAVY if always or cost > settings.heavy_cost else QUEUE_JOBS
 
 
 class QuotaExceeded(Exception):

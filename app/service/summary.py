@@ -5,19 +5,41 @@ the scalar fields of the result's top three levels stand in.
 """
 from __future__ import annotations
 
+from collections.abc import Iterator, Mapping
 from typing import Any
 
 MAX_GENERIC = 10
 
-# Where each kind takes a warm start from a stored job: the console's "warm start" button and the
-# continuation walk of a study fill it in.  midcourse has none (NSGA-II starts from its seed).
-# A key number whose better direction never depends on the parameters: a study keeps the best job of each
-# point by it and, once every point is final, retries a point from a neighbour that did better (multimodal
-# problems: a cold start can land in a worse local optimum than its neighbour's).
-FIXED_OBJECTIVE = {"intercept": ("finite_thrust.fuel_kg", "min")}
 
-WARM_START_FIELD = {"reentry": "initial_guess.from_job", "robust_reentry": "initial_guess.from_job",
-                    "intercept": "finite_thrust.from_job", "ocp": "guess.from_job"}
+class SpecField(Mapping[str, Any]):
+    """kind -> one field of its ``KindSpec``, for the kinds whose field is set: a view of the registry,
+    read on each use (a kind registered later is in it), never a table of its own."""
+
+    def __init__(self, name: str):
+        self.name = name
+
+    def _items(self) -> dict[str, Any]:
+        from app.kinds import KINDS
+
+        return {kind: value for kind, spec in KINDS.items() if (value := getattr(spec, self.name, None)) is not None}
+
+    def __getitem__(self, kind: str) -> Any:
+        return self._items()[kind]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._items())
+
+    def __len__(self) -> int:
+        return len(self._items())
+
+
+# Where each kind takes a warm start from a stored job (KindSpec.warm_start_field): the console's "warm start"
+# button and the continuation walk of a study fill it in.
+WARM_START_FIELD = SpecField("warm_start_field")
+# A key number whose better direction never depends on the parameters (KindSpec.fixed_objective): a study keeps
+# the best job of each point by it and, once every point is final, retries a point from a neighbour that did
+# better (multimodal problems: a cold start can land in a worse local optimum than its neighbour's).
+FIXED_OBJECTIVE = SpecField("fixed_objective")
 
 
 def _generic(result: dict, prefix: str = "", depth: int = 0, out: dict | None = None) -> dict[str, Any]:

@@ -132,11 +132,11 @@ def test_the_oem_reads_back_with_the_library_and_starts_on_the_interceptors_orbi
 
     from app.kinds.intercept import to_problem
     from app.kinds.intercept.oem import inertial_states, to_oem
-    from app.results.oem import has_oem
+    from app.kinds import KINDS
     from solvers.models.relative_motion import circular_state
 
     params, result = finite_intercept
-    assert has_oem("intercept", result) and not has_oem("reentry", {"trajectory": {"t_s": [0.0]}})
+    assert KINDS["intercept"].oem.available(result) and KINDS["reentry"].oem is None
     path = tmp_path / "r.oem"
     path.write_text(to_oem(result=result, params=params, object_name="job-1"))
     message = OrbitEphemerisMessage.open(path)

@@ -22,6 +22,7 @@ from app.service import jobs
 from app.api.access import PrincipalDep, visible_job
 from app.api.deps import DatabaseDep
 from app.kinds import KINDS, PRESETS
+from app.kinds.base import CompareSeries
 from app.service.summary import WARM_START_FIELD
 
 WEB = Path(__file__).resolve().parents[2] / "web"
@@ -29,16 +30,13 @@ templates = Jinja2Templates(directory=str(WEB / "templates"))
 router = APIRouter(include_in_schema=False)
 
 
-
-# Kinds whose parameters are a document (a problem written as data: names, expressions, lists) rather
-# than a set of settings: "New job" edits them as JSON in a text area instead of a form of fields.
-JSON_EDITOR_KINDS = frozenset({"ocp"})
-
-
 def _page(request: Request, name: str, **context) -> HTMLResponse:
-    kinds = {k: {"summary": s.summary, "presets": [p.name for p in s.presets], "json": k in JSON_EDITOR_KINDS}
+    # what the pages' scripts know of each kind, from its KindSpec: "json" (the params are a document, edited
+    # as JSON: KindSpec.json_editor), "extras" (the job page's sections its results fill), the warm-start field
+    kinds = {k: {"summary": s.summary, "presets": [p.name for p in s.presets], "json": s.json_editor,
+                 "extras": list(s.console_extras)}
              for k, s in KINDS.items()}
-    return templates.TemplateResponse(request, name, {"kinds": kinds, "warm_fields": WARM_START_FIELD,
+    return templates.TemplateResponse(request, name, {"kinds": kinds, "warm_fields": dict(WARM_START_FIELD),
                                                       **context})
 
 
@@ -98,34 +96,16 @@ async def compare_png(db: DatabaseDep, principal: PrincipalDep,
     return Response(png, media_type="image/png", headers={"Cache-Control": "private, max-age=3600"})
 
 
-def _series(kind: str, result: dict):
-    """(x, y, x label, y label, style) of the curve that best shows a job of this kind."""
-    if kind in ("reentry", "robust_reentry"):
-        tr = result["trajectory"]
-        return ([v / 1000 if v is not None else None for v in tr["speed_mps"]],
-                [v / 1000 if v is not None else None for v in tr["altitude_m"]],
-                "speed (km/s)", "altitude (km)", "-")
-    if kind == "midcourse":
-        front = sorted(result["pareto_front"], key=lambda p: p["delta_v_mps"])
-        return ([p["delta_v_mps"] for p in front], [p["position_error_m"] for p in front],
-                "total delta-v (m/s)", "final position error (m)", "o-")
-    if kind == "intercept":
-        if result.get("finite_thrust"):
-            tr = result["finite_thrust"]["trajectory"]
-            return tr["t_s"], tr["mass_kg"], "time (s)", "mass (kg)", "-"
-        scan = result["impulsive"]["scan"]
-        return scan["t_man_s"], scan["delta_v_mps"], "maneuver time (s)", "delta-v (m/s)", "-"
-    if kind == "ocp":  # the first pair the problem asked for in `plots`, else its first quantity against time
-        tr = result.get("trajectory")
-        if tr is None:  # several phases, one after the other: the quantities every phase has
-            phases = [p["trajectory"] for p in result.get("phases") or []]
-            tr = {n: [v for p in phases for v in p[n]] for n in (phases[0] if phases else {})
-                  if all(n in p for p in phases)}
-        x, y = (result.get("plots") or [["t", next((n for n in tr if n != "t"), "t")]])[0]
-        if not (isinstance(tr.get(x), list) and isinstance(tr.get(y), list)):
-            raise HTTPException(status_code=422, detail=f"compare needs ocp jobs that all have {x} and {y}")
-        return tr[x], tr[y], x, y, "-"
-    raise HTTPException(status_code=422, detail=f"no comparison plot for kind {kind}")
+def _series(kind: str, result: dict) -> CompareSeries:
+    """The curve that best shows a job of this kind (``KindSpec.compare``); a 422 for a kind without one or a
+    result that lacks it."""
+    spec = KINDS.get(kind)
+    if spec is None or spec.compare is None:
+        raise HTTPException(status_code=422, detail=f"no comparison plot for kind {kind}")
+    try:
+        return spec.compare(result)
+    except ValueError as exc:
+        raise HTTPException(status_code=422, detail=str(exc)) from None
 
 
 def render_compare(loaded) -> bytes:
@@ -135,10 +115,10 @@ def render_compare(loaded) -> bytes:
     ax = fig.add_subplot()
     kind = loaded[0][0].kind
     for job, result in loaded:
-        x, y, xlabel, ylabel, style = _series(kind, result)
-        ax.plot(x, y, style, ms=3, lw=1.5, label=job.label or job.id[:8])
-    ax.set_xlabel(xlabel)
-    ax.set_ylabel(ylabel)
+        series = _series(kind, result)
+        ax.plot(series.x, series.y, series.style, ms=3, lw=1.5, label=job.label or job.id[:8])
+    ax.set_xlabel(series.x_label)
+    ax.set_ylabel(series.y_label)
     ax.set_title(f"{kind}: {len(loaded)} jobs compared")
     ax.grid(True, alpha=0.3)
     ax.legend()

@@ -19,9 +19,7 @@ from app.service import jobs
 from app.api.access import PrincipalDep, visible_job
 from app.api.deps import DatabaseDep
 from app.results import plots as plot_defs
-from app.kinds.midcourse.oem import default_point, midcourse_to_oem
-from app.kinds.intercept.oem import to_oem
-from app.results.oem import has_oem
+from app.kinds import KINDS
 from app.api.schemas import ErrorBody
 from app.api.security_headers import REPORT_CSP
 from app.results.report import render_report
@@ -66,6 +64,13 @@ def _succeeded(db, job_id: str, principal):
     return job, jobs.get_result(db, job_id)
 
 
+def _oem(kind: str, result: dict):
+    """The kind's OEM export (``KindSpec.oem``) if this result has a trajectory to write, else None."""
+    spec = KINDS.get(kind)
+    oem = spec.oem if spec is not None else None
+    return oem if oem is not None and oem.available(result) else None
+
+
 def _title(job) -> str:
     return f"{job.kind} {job.label or job.id[:8]}"
 
@@ -92,7 +97,7 @@ def list_plots(job_id: str, db: DatabaseDep, principal: PrincipalDep) -> dict:
         "tables": [{"name": name, "url": f"{base}/result.csv?table={name}", "columns": list(cols)}
                    for name, cols in tables_for(job.kind, result).items()],
         "report": f"{base}/report.html",
-        "oem": f"{base}/result.oem" if has_oem(job.kind, result) else None,
+        "oem": f"{base}/result.oem" if _oem(job.kind, result) is not None else None,
     }
 
 
@@ -176,19 +181,14 @@ async def get_result_oem(job_id: str, db: DatabaseDep, principal: PrincipalDep,
     propagator and Lambert impulses, in the Earth-centred inertial frame of the launch frame (z the
     spin axis, x the launch meridian at t0; the COMMENT lines say so)."""
     job, result = await run_in_threadpool(_succeeded, db, job_id, principal)
-    if not has_oem(job.kind, result):
+    oem = _oem(job.kind, result)
+    if oem is None:
         raise HTTPException(status_code=404, detail=f"job {job_id} has no trajectory to write")
-    if job.kind == "midcourse":
-        n = len(result["pareto_front"])
-        point = default_point(result) if point is None else point
-        if point >= n:
-            raise HTTPException(status_code=404, detail=f"job {job_id} has no front point {point} ({n} points)")
-        view = ("nominal",) if trajectory == "nominal" else ("point", str(point))
-        make = lambda: midcourse_to_oem(result=result, params=job.params, object_name=job.label or job.id,  # noqa: E731
-                                        point=point, trajectory=trajectory)
-    else:
-        view = ()
-        make = lambda: to_oem(result=result, params=job.params, object_name=job.label or job.id)  # noqa: E731
+    try:
+        view, make = oem.prepare(result, job.params, object_name=job.label or job.id, point=point,
+                                 trajectory=trajectory)
+    except LookupError as exc:
+        raise HTTPException(status_code=404, detail=f"job {job_id} has {exc.args[0]}") from None
     etag = _etag(job_id, "oem", *view)
     if (hit := _not_modified(etag, if_none_match)) is not None:
         return hit

@@ -9,14 +9,20 @@ Earth-centred inertial frame of the epoch t0 = 0; all times are seconds after t0
 """
 from __future__ import annotations
 
-import math
-
-from app.kinds.base import JobContext, KindSpec, Preset, RunOutcome, outcome_from_status, warm_start_from_job
+from app.kinds.base import (CompareSeries, JobContext, KindSpec, MemoryModel, Preset, RunOutcome, outcome_from_status,
+                            warm_start_from_job)
+from app.kinds.intercept.footprint import compact, cost, porkchop_table
 from app.kinds.intercept.headlines import headlines
+from app.kinds.intercept.oem import OEM
 from app.kinds.intercept.plots import plots
 from app.kinds.intercept.params import InterceptParams
+from app.kinds.intercept.problem import to_problem
 from app.kinds.intercept.result_model import InterceptResult
 from app.kinds.intercept.results import comparison, finite_result, impulsive_result, key_numbers
+from app.results.tables import columns_at
+
+# Where a new job takes a stored job's id to warm-start its finite-thrust solve (KindSpec.warm_start_field).
+WARM_START_FIELD = "finite_thrust.from_job"
 
 PAPER_NOTE = (
     "Paper 003 reports 1501.73 m/s at t_man = 4328 s (fuel 199.99 kg, g0 = 9.8 m/s^2). With the "
@@ -52,42 +58,6 @@ PRESETS = [
 ]
 
 
-def to_problem(params: InterceptParams):
-    """Solver problem (SI, radians) from API parameters."""
-    from solvers.astro.elements import Elements
-    from solvers.intercept import InterceptProblem, PorkchopSettings, ScanSettings
-    from solvers.intercept.scenario import InterceptScenario
-    from solvers.intercept.thrust import MeshOptions
-
-    i, t, r = params.interceptor, params.target, math.radians
-    pc, ft = params.porkchop, params.finite_thrust
-    scenario = InterceptScenario(
-        interceptor_orbit=Elements(a=i.semi_major_axis_m, e=i.eccentricity, i=r(i.inclination_deg),
-                                   raan=r(i.raan_deg), argp=r(i.arg_perigee_deg), nu=r(i.true_anomaly_deg)),
-        target_orbit=Elements(a=t.semi_major_axis_m, e=0.0, i=r(t.inclination_deg), raan=r(t.raan_deg),
-                              argp=0.0, nu=r(t.arg_latitude_deg)),
-        mass_kg=i.mass_kg, propellant_kg=i.propellant_kg, isp_s=i.isp_s, max_thrust_n=i.max_thrust_n,
-        tf_s=params.intercept_time_s, free_final_time=params.free_final_time,
-        tf_bounds_s=(params.tf_bounds_s[0], params.tf_bounds_s[1]), mu_m3_s2=params.mu_m3_s2,
-        g0_mps2=params.g0_mps2, body_radius_m=params.scan.body_radius_m)
-    return InterceptProblem(
-        scenario=scenario,
-        methods=tuple(params.methods),
-        scan=ScanSettings(step_s=params.scan.step_s, t_start_s=params.scan.t_start_s,
-                          t_end_s=params.scan.t_end_s, max_revolutions=params.scan.max_revolutions,
-                          retrograde=params.scan.retrograde, refine=params.scan.refine,
-                          exclude_through_planet=params.scan.exclude_through_planet,
-                          body_radius_m=params.scan.body_radius_m),
-        mesh=MeshOptions(nodes=ft.nodes_per_segment, coast_segment_s=ft.coast_segment_s,
-                         burn_segment_s=ft.burn_segment_s, miss_tolerance_m=ft.miss_tolerance_m,
-                         max_refinements=ft.max_refinements, max_iterations=ft.max_iterations),
-        porkchop=(PorkchopSettings(t_man_points=pc.t_man_points, t_intercept_points=pc.t_intercept_points,
-                                   t_man_min_s=pc.t_man_min_s, t_man_max_s=pc.t_man_max_s,
-                                   t_intercept_min_s=pc.t_intercept_min_s,
-                                   t_intercept_max_s=pc.t_intercept_max_s) if pc.enabled else None),
-    )
-
-
 def trajectory_guess(stored: dict):
     """A finite-thrust warm start from a stored intercept result."""
     import numpy as np
@@ -112,7 +82,7 @@ def run(params: InterceptParams, ctx: JobContext) -> RunOutcome:
     guess = None
     job = params.finite_thrust.from_job
     if job and "finite_thrust" in params.methods:
-        guess = warm_start_from_job(ctx, job, trajectory_guess, field="finite_thrust.from_job",
+        guess = warm_start_from_job(ctx, job, trajectory_guess, field=WARM_START_FIELD,
                                     what="finite-thrust trajectory")
         notes.append(f"finite thrust warm-started from job {job}")
     sol = solver.solve(problem, initial_guess=guess, on_progress=ctx.progress, should_stop=ctx.should_stop)
@@ -147,6 +117,15 @@ def run(params: InterceptParams, ctx: JobContext) -> RunOutcome:
     return outcome_from_status(sol.status, result)
 
 
+def compare_series(result: dict) -> CompareSeries:
+    """The interceptor's mass against time when it flew finite thrust, else the delta-v scan."""
+    if result.get("finite_thrust"):
+        tr = result["finite_thrust"]["trajectory"]
+        return CompareSeries(tr["t_s"], tr["mass_kg"], "time (s)", "mass (kg)")
+    scan = result["impulsive"]["scan"]
+    return CompareSeries(scan["t_man_s"], scan["delta_v_mps"], "maneuver time (s)", "delta-v (m/s)")
+
+
 SPEC = KindSpec(
     kind="intercept",
     params_model=InterceptParams,
@@ -156,5 +135,17 @@ SPEC = KindSpec(
     headlines=headlines,
     summary="Long-range interception: single-impulse Lambert scan (and porkchop) and finite-thrust fuel-optimal",
     key_numbers=key_numbers,
+    # the fuel is always minimized: a study keeps each point's best job by it
+    fixed_objective=("finite_thrust.fuel_kg", "min"),
     result_model=InterceptResult,
+    cost=cost,
+    # 356 MB resident for the preset in a fresh pool process (README "Limits and data"); its fields are capped
+    # below where memory grows.
+    memory=MemoryModel(floor_mb=356.0),
+    compact=compact,
+    tables={"scan": columns_at("impulsive.scan"), "finite_thrust": columns_at("finite_thrust.trajectory"),
+            "porkchop": porkchop_table},
+    oem=OEM,
+    warm_start_field=WARM_START_FIELD,
+    compare=compare_series,
 )

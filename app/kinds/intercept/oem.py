@@ -10,13 +10,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from app.kinds.base import OemExport
 from app.results.oem import MIN_STEP_S, spaced, write_oem
 
 
 def inertial_states(*, result: dict, params: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(t_s, r_m (n, 3), v_mps (n, 3))`` of the interceptor, inertial, nodes closer than MIN_STEP_S dropped."""
-    from app.kinds.intercept.kind import to_problem
     from app.kinds.intercept.params import InterceptParams
+    from app.kinds.intercept.problem import to_problem
     from solvers.models.relative_motion import circular_state, hill_to_inertial
 
     tr = result["finite_thrust"]["trajectory"]
@@ -35,3 +36,15 @@ def to_oem(*, result: dict, params: dict, object_name: str) -> str:
     """The OEM text (KVN) of the interceptor's trajectory."""
     t, r, v = inertial_states(result=result, params=params)
     return write_oem([(t, r, v)], object_name=object_name)
+
+
+def _available(result: dict) -> bool:
+    return bool(((result.get("finite_thrust") or {}).get("trajectory") or {}).get("t_s"))
+
+
+def _prepare(result: dict, params: dict, *, object_name: str, point=None, trajectory=None):
+    """One file per job (``point`` and ``trajectory`` choose among a midcourse front's, not here)."""
+    return (), lambda: to_oem(result=result, params=params, object_name=object_name)
+
+
+OEM = OemExport(available=_available, prepare=_prepare)

@@ -14,10 +14,13 @@ from __future__ import annotations
 import math
 import time
 
-from app.kinds.base import JobContext, KindSpec, Preset, RunOutcome, json_float, outcome_from_status
+from app.kinds.base import (CompareSeries, JobContext, KindSpec, MemoryModel, Preset, RunOutcome, json_float,
+                            outcome_from_status)
 from app.kinds.midcourse.headlines import headlines
+from app.kinds.midcourse.oem import OEM
 from app.kinds.midcourse.plots import plots
 from app.kinds.midcourse.params import MidcourseParams
+from app.kinds.midcourse.problem import to_problem
 from app.kinds.midcourse.result_model import MidcourseResult
 from solvers.midcourse import cases
 
@@ -73,40 +76,6 @@ def _stats(values) -> dict | None:
     if values is None:
         return None
     return {"delta_v_mps": json_float(values[0]), "position_error_m": json_float(values[1]), "velocity_error_mps": json_float(values[2])}
-
-
-def to_problem(params: MidcourseParams):
-    """Solver problem (SI, radians) from API parameters."""
-    import numpy as np
-
-    from solvers.astro.j2 import GravityConstants, LaunchFrame
-    from solvers.midcourse import Dispersion, GASettings, MidcourseProblem
-
-    g = params.gravity
-    if params.frame == "eci":
-        frame = LaunchFrame.eci()
-    else:
-        s = params.launch_site
-        frame = LaunchFrame.from_geodetic(latitude_rad=math.radians(s.latitude_deg),
-                                          azimuth_rad=math.radians(s.azimuth_deg), height_m=s.height_m)
-    d = params.dispersion
-    h = params.hypervolume_reference
-    return MidcourseProblem(
-        r0=np.array(params.initial.position_m), v0=np.array(params.initial.velocity_mps),
-        r_target=np.array(params.target.position_m), v_target=np.array(params.target.velocity_mps),
-        tf_s=params.tf_s,
-        position_error=np.array(params.initial_error.position_m),
-        velocity_error=np.array(params.initial_error.velocity_mps),
-        frame=frame, constants=GravityConstants(mu=g.mu_m3_s2, j2=g.j2, ae=g.ae_m),
-        mode=params.mode, schedules=[list(s) for s in params.schedules], corrections=params.corrections,
-        time_bounds=(params.time_bounds_s[0], params.time_bounds_s[1]), min_spacing=params.min_spacing_s,
-        ga=GASettings(population=params.population, generations=params.generations,
-                      crossover_prob=params.crossover_prob, mutation_prob=params.mutation_prob,
-                      eliminate_duplicates=params.eliminate_duplicates),
-        dispersion=None if d is None else Dispersion(samples=d.samples, percentile=d.percentile, seed=d.seed,
-                                                     statistic=d.statistic),
-        hypervolume_reference=(h.delta_v_mps, h.position_error_m, h.velocity_error_mps),
-    )
 
 
 def _is_paper_frame(params: MidcourseParams) -> bool:
@@ -206,6 +175,35 @@ def key_numbers(result: dict) -> dict:
             "generations": result["generations"]}
 
 
+def cost(params: dict) -> float:
+    """Work units (:mod:`app.service.quota`): optimize: population x generations x max(1, dispersion
+    samples) / 5 (one J2 propagation per member and generation); evaluate: schedules x samples."""
+    samples = max(1.0, float((params.get("dispersion") or {}).get("samples", 1)))
+    if params.get("mode") == "evaluate":
+        return float(len(params.get("schedules") or [])) * samples
+    return float(params.get("population", 100)) * float(params.get("generations", 500)) * samples / 5.0
+
+
+def front_table(result: dict) -> dict[str, list] | None:
+    """The Pareto front as CSV columns: each correction time, then the three objectives."""
+    front = result.get("pareto_front")
+    if not front:
+        return None
+    n = max(len(p["times_s"]) for p in front)
+    cols: dict[str, list] = {f"t{i + 1}_s": [p["times_s"][i] if i < len(p["times_s"]) else None for p in front]
+                             for i in range(n)}
+    for key in ("delta_v_mps", "position_error_m", "velocity_error_mps"):
+        cols[key] = [p[key] for p in front]
+    return cols
+
+
+def compare_series(result: dict) -> CompareSeries:
+    """The fronts: final position error against total delta-v."""
+    front = sorted(result["pareto_front"], key=lambda p: p["delta_v_mps"])
+    return CompareSeries([p["delta_v_mps"] for p in front], [p["position_error_m"] for p in front],
+                         "total delta-v (m/s)", "final position error (m)", "o-")
+
+
 SPEC = KindSpec(
     kind="midcourse",
     params_model=MidcourseParams,
@@ -217,4 +215,12 @@ SPEC = KindSpec(
     summary="Midcourse-correction timing on a transfer orbit: J2 coasts, Lambert re-targeting, NSGA-II front",
     key_numbers=key_numbers,
     result_model=MidcourseResult,
+    cost=cost,
+    # 343 MB resident for the preset in a fresh pool process (README "Limits and data"); its fields are capped
+    # below where memory grows.
+    memory=MemoryModel(floor_mb=343.0),
+    tables={"pareto_front": front_table},
+    oem=OEM,
+    compare=compare_series,
+    console_extras=("front_table",),
 )

@@ -21,6 +21,7 @@ from typing import Literal
 
 import numpy as np
 
+from app.kinds.base import OemExport
 from app.results.oem import MIN_STEP_S, spaced, write_oem
 
 STEP_S = 60.0  # state spacing of the file; every impulse adds a segment boundary
@@ -36,8 +37,8 @@ def midcourse_segments(*, result: dict, params: dict, point: int,
                        trajectory: Literal["corrected", "nominal"] = "corrected"):
     """``(segments, comments)``: ``[(t_s, r_m (n, 3), v_mps (n, 3))]`` Earth-centred inertial, and the
     file's COMMENT lines."""
-    from app.kinds.midcourse.kind import to_problem
     from app.kinds.midcourse.params import MidcourseParams
+    from app.kinds.midcourse.problem import to_problem
     from solvers.midcourse.trajectory import inertial_rotation, transfer_trajectories
 
     p = MidcourseParams.model_validate(params)
@@ -72,3 +73,19 @@ def midcourse_to_oem(*, result: dict, params: dict, object_name: str, point: int
     segments, comments = midcourse_segments(result=result, params=params, point=point, trajectory=trajectory)
     suffix = "nominal" if trajectory == "nominal" else f"point {point}"
     return write_oem(segments, object_name=f"{object_name[:48]} {suffix}", comments=comments)
+
+
+def prepare(result: dict, params: dict, *, object_name: str, point: int | None,
+            trajectory: Literal["corrected", "nominal"]):
+    """``(view, make)`` of :class:`app.kinds.base.OemExport`: the nominal transfer, or front point ``point``
+    (default: the point of least delta-v; ``LookupError`` past the front)."""
+    n = len(result["pareto_front"])
+    point = default_point(result) if point is None else point
+    if point >= n:
+        raise LookupError(f"no front point {point} ({n} points)")
+    view = ("nominal",) if trajectory == "nominal" else ("point", str(point))
+    return view, lambda: midcourse_to_oem(result=result, params=params, object_name=object_name, point=point,
+                                          trajectory=trajectory)
+
+
+OEM = OemExport(available=lambda result: bool(result.get("pareto_front")), prepare=prepare)

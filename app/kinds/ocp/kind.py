@@ -18,11 +18,13 @@ from app.kinds.base import (
     RunOutcome,
     outcome_from_status,
 )
+from app.kinds.ocp.footprint import MEMORY, compare_series, trajectory_table
 from app.kinds.ocp.headlines import headlines
 from app.kinds.ocp.params import OcpParams
 from app.kinds.ocp.phase_kind import check_warm_start, misfit, phases_cost
 from app.kinds.ocp.plots import plots
 from app.kinds.ocp.result import OcpResult, build_result
+from app.results.tables import columns_at
 from solvers.ocp import cases
 
 WARM_START_FIELD = "guess.from_job"
@@ -145,4 +147,9 @@ SPEC = KindSpec(
     plots=plots,
     headlines=headlines,
     warm_start_misfit=misfit,
+    memory=MEMORY,
+    tables={"trajectory": trajectory_table, "verification": columns_at("verification.trajectory")},
+    warm_start_field=WARM_START_FIELD,
+    compare=compare_series,
+    json_editor=True,   # a problem written as data: "New job" edits it as JSON, not as a form of fields
 )

@@ -241,3 +241,22 @@ def reentry_result(sol) -> dict:
                                          unit=sol.objective_unit),
             **result_blocks(trajectory=sol.trajectory, tf_s=sol.tf_s, status=sol.status, stages=sol.stages,
                             notes=sol.notes, verification=sol.verification)}
+
+
+def shooting_cost(params: dict) -> float:
+    """The reentry job's cost in :mod:`app.service.quota`'s work units: intervals x substeps (one unit is
+    one RK4 step of one shooting interval), times the solves of the refinement rounds with ``accuracy``
+    (each round may solve again, on more intervals, as ocp's cost counts).  The robust kind builds on it."""
+    grid = params.get("grid") or {}
+    rounds = 1.0 + (float(grid.get("max_refinements", 8)) if params.get("accuracy") else 0.0)
+    return float(grid.get("intervals", 100)) * float(grid.get("substeps", 2)) * rounds
+
+
+def compare_series(result: dict):
+    """Altitude against speed, the curve that best shows a reentry (the console's compare plot)."""
+    from app.kinds.base import CompareSeries
+
+    tr = result["trajectory"]
+    return CompareSeries([v / 1000 if v is not None else None for v in tr["speed_mps"]],
+                         [v / 1000 if v is not None else None for v in tr["altitude_m"]],
+                         "speed (km/s)", "altitude (km)")

@@ -17,13 +17,18 @@ import numpy as np
 from app.kinds.base import (
     JobContext, KindSpec, Preset, RunOutcome, json_float, outcome_from_status, warm_start_from_job,
 )
-from app.kinds.reentry.edge import (guess_from_result, json_list, objective_block, reentry_result,
+from app.kinds.reentry.edge import (compare_series, guess_from_result, json_list, objective_block, reentry_result,
                                     result_blocks, to_problem)
+from app.kinds.robust_reentry.footprint import MEMORY, compact, cost
 from app.kinds.robust_reentry.headlines import headlines
 from app.kinds.robust_reentry.plots import plots
 from app.kinds.robust_reentry.params import STATES_BY_NAME, RobustReentryParams
 from app.kinds.robust_reentry.result_model import RobustReentryResult
+from app.results.tables import columns_at
 from solvers.models.reentry_state import LATITUDE, STATES
+
+# Where a new job takes a stored job's id to warm-start from it (KindSpec.warm_start_field).
+WARM_START_FIELD = "initial_guess.from_job"
 
 PRESETS = [
     Preset("robust-max-crossrange", "robust_reentry",
@@ -202,7 +207,7 @@ def run(params: RobustReentryParams, ctx: JobContext) -> RunOutcome:
     notes: list[str] = []
     if params.initial_guess.from_job:
         job = params.initial_guess.from_job
-        guess = warm_start_from_job(ctx, job, guess_from_result, field="initial_guess.from_job",
+        guess = warm_start_from_job(ctx, job, guess_from_result, field=WARM_START_FIELD,
                                     what="trajectory")
         notes.append(f"deterministic stage warm-started from job {job}")
     # The loop's designs are re-propagated (rr.verify) only when one is reported: a round the
@@ -315,5 +320,12 @@ def run(params: RobustReentryParams, ctx: JobContext) -> RunOutcome:
 
 SPEC = KindSpec(kind="robust_reentry", params_model=RobustReentryParams, run=run, presets=PRESETS, time_limit_s=1800.0,
                 result_model=RobustReentryResult, plots=plots, headlines=headlines,
+                # the heavy queue whatever the cost: even a small robust job runs its continuation stages and
+                # two Monte Carlo validations, too long for the quick queue
+                cost=cost, memory=MEMORY, always_heavy=True, compact=compact,
+                tables={"trajectory": columns_at("trajectory"),
+                        "deterministic": columns_at("deterministic.trajectory"),
+                        "verification": columns_at("verification.trajectory")},
+                warm_start_field=WARM_START_FIELD, compare=compare_series,
                 summary="Robust reentry (paper 001): CADET mean/covariance propagation, mean - k sigma design, "
                         "Monte Carlo validation of the deterministic and robust controls")

@@ -239,7 +239,7 @@ const Console = (() => {
     text($("#form-error"), loose.length ? loose.join("\n") : (detail.length ? "" : err.message));
   }
 
-  // ---- new job for a kind whose parameters are a document (ocp): a JSON editor ----------------------
+  // ---- new job for a kind whose parameters are a document (KindSpec.json_editor): a JSON editor -----
   // JSON.stringify(value, null, 2), plus the line of every path ("dynamics.v", "states.2.final").
   function pretty(value) {
     const lines = [], at = {};

@@ -1,8 +1,9 @@
 // trajlab console, the job page's reading aids (issue 28): the kind's headline numbers with their units
 // and verdicts, a failed job explained (what went wrong, where, what to try) with its last iterate's
-// plots, wide plots at full width and any plot full size on click, and for a midcourse job the table of
-// Pareto-front points with the point the OEM download uses.  Uses console.js's Console.api; loaded
-// after it (both deferred, in order).  Data from /console/jobs/{id}/summary and the public /v1 routes.
+// plots, wide plots at full width and any plot full size on click, and the sections a kind's results fill
+// (its KindSpec.console_extras, in the page's kinds data): "front_table", the table of Pareto-front points
+// with the point the OEM download uses.  Uses console.js's Console.api; loaded after it (both deferred, in
+// order).  Data from /console/jobs/{id}/summary and the public /v1 routes.
 "use strict";
 (() => {
   const $ = (sel) => document.querySelector(sel);
@@ -16,6 +17,9 @@
     return e;
   };
   const num = (v, digits = 6) => (typeof v === "number" ? (Number.isInteger(v) ? String(v) : v.toPrecision(digits)) : "");
+
+  // The job page's sections a kind's results fill (KindSpec.console_extras; console.js reads the page's data).
+  const extras = (kind) => (((window.TRAJLAB || {}).kinds || {})[kind] || {}).extras || [];
 
   async function saveAs(path, filename) {  // fetched with the key, then saved
     const link = document.createElement("a");
@@ -60,7 +64,7 @@
     }
   }
 
-  // Pareto front of a midcourse job: one row per point, a choice of point for the OEM download.
+  // The "front_table" extra: one row per Pareto-front point, a choice of point for the OEM download.
   async function frontTable(id, job) {
     const result = await getJSON(`/v1/jobs/${id}/result`);
     const front = result.pareto_front || [];
@@ -118,7 +122,7 @@
         if (s.failure) await showFailure(id, s.failure, s.last_iterate_plots || []);
         if (s.status === "succeeded") {
           const job = await getJSON(`/v1/jobs/${id}`);
-          if (job.kind === "midcourse") await frontTable(id, job);
+          if (extras(job.kind).includes("front_table")) await frontTable(id, job);
         }
         document.body.dataset.summary = "shown";  // tests wait for this
         return;

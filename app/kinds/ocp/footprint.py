@@ -1,0 +1,56 @@
+"""What an ``ocp`` job takes and shows beyond its plots: its memory (:mod:`app.service.job_memory`; its
+cost is :func:`app.kinds.ocp.kind.cost`), its trajectory as one CSV table over its phases, and its curve on
+the console's compare plot."""
+from __future__ import annotations
+
+from app.kinds.base import CompareSeries, MemoryModel
+from app.results.tables import columns, columns_at
+
+
+def _size(params: dict) -> float:
+    """RK4 steps (or LGL nodes) x (states + controls)."""
+    tr = params.get("transcription") or {}
+    if tr.get("method", "multiple_shooting") == "multiple_shooting":
+        steps = float(tr.get("substeps", 2))
+    else:
+        steps = float(tr.get("nodes", 4))
+    width = float(len(params.get("states") or []) + len(params.get("controls") or []))
+    return float(tr.get("intervals", 50)) * steps * width
+
+
+# Measured (README "Limits and data"): 215 MB resident in a fresh pool process at a size of 100 intervals x
+# 2 steps x 8 states and controls, 0.0003 MB more per step x (states + controls) past it.
+MEMORY = MemoryModel(floor_mb=215.0, size=_size, floor_size=100.0 * 2 * 8, per_unit_mb=0.0003,
+                     grows_with="transcription.intervals x steps per interval x (states + controls)")
+
+
+def trajectory_table(result: dict) -> dict[str, list] | None:
+    """Several phases: their trajectories one after the other, a ``phase`` column first (a quantity a phase
+    does not have is empty there); one phase: its trajectory."""
+    phases = [p for p in result.get("phases") or [] if isinstance(p, dict) and columns(p.get("trajectory"))]
+    if not phases:
+        return columns_at("trajectory")(result)
+    names: list[str] = []
+    for p in phases:
+        names += [n for n in columns(p["trajectory"]) or {} if n not in names]
+    cols: dict[str, list] = {"phase": [], **{n: [] for n in names}}
+    for p in phases:
+        tr = columns(p["trajectory"]) or {"t": []}
+        n = len(tr["t"])
+        cols["phase"] += [p["name"]] * n
+        for k in names:
+            cols[k] += tr.get(k) or [None] * n
+    return cols
+
+
+def compare_series(result: dict) -> CompareSeries:
+    """The first pair the problem asked for in ``plots``, else its first quantity against time."""
+    tr = result.get("trajectory")
+    if tr is None:  # several phases, one after the other: the quantities every phase has
+        phases = [p["trajectory"] for p in result.get("phases") or []]
+        tr = {n: [v for p in phases for v in p[n]] for n in (phases[0] if phases else {})
+              if all(n in p for p in phases)}
+    x, y = (result.get("plots") or [["t", next((n for n in tr if n != "t"), "t")]])[0]
+    if not (isinstance(tr.get(x), list) and isinstance(tr.get(y), list)):
+        raise ValueError(f"compare needs ocp jobs that all have {x} and {y}")
+    return CompareSeries(tr[x], tr[y], x, y)
