@@ -59,3 +59,19 @@ def test_scrape_config_loads_in_promtool(tmp_path):
     assert promtool, "promtool is missing: scripts/test-prerequisites.sh installs Debian's prometheus"
     out = subprocess.run([promtool, "check", "config", str(config)], capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stdout + out.stderr
+
+
+def test_the_image_builds_the_guide_and_carries_the_compose_servers_postgresql_client():
+    # Docker cannot run here: the Dockerfile is read. The guide is built (strictly) before the package is
+    # installed, into the directory the service serves; the PostgreSQL client tools are the major version
+    # of docker-compose.yml's postgres image (trajlab backup refuses older tools, app/cli/backup.py).
+    root = DEPLOY.parent
+    dockerfile = (root / "Dockerfile").read_text()
+    compose = yaml.safe_load((root / "docker-compose.yml").read_text())
+    server_major = re.fullmatch(r"postgres:(\d+)(\.\d+)*", compose["services"]["postgres"]["image"]).group(1)
+    assert re.search(rf"\bpostgresql-client-{server_major}\b", dockerfile), server_major
+    assert "mkdocs build --strict" in dockerfile
+    final = dockerfile.rsplit("\nFROM ", 1)[1]
+    served = "./app/static/guide"   # app/api/routes/guide.py: SITE, inside the installed package
+    assert re.search(rf"COPY --from=guide /guide {served}\n", final)
+    assert final.index(served) < final.index("pip install --no-cache-dir --no-deps .")
