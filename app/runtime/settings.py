@@ -158,6 +158,11 @@ class Settings(BaseSettings):
         default=100_000.0, gt=0, description="Budget of estimated cost (app.service.quota) over an owner's queued + "
                                              "running jobs; one job alone may exceed it")
     heavy_cost: float = Field(default=5_000.0, gt=0, description="Jobs estimated above this go to the heavy queue")
+    # Read by the registry (app.kinds) from the environment when it is first imported, before any Settings
+    # exists: the submission schema is built from the registry then.  Declared here to be listed and documented.
+    extra_kinds: str = Field(default="", description="Kinds outside app/kinds: comma-separated module paths, each "
+                                                     "module with a SPEC (a KindSpec), registered in the API process "
+                                                     "and every worker (set it for both)")
     quota_retry_after_s: int = Field(default=30, ge=1, description="Retry-After of a 429")
     # What the service keeps (README "Limits and data"; app.service.storage, app.service.retention).
     max_stored_mb_per_owner: float | None = Field(
