@@ -3,8 +3,8 @@
 Two worker hosts in network namespaces of their own (tests/faults/hosts.py), each reaching this
 test's PostgreSQL and Redis over a veth pair only; the API and the recovery loop stay here.  Host a is
 cut off (link down) for longer than the stale limit in the middle of a burst, then restored: no job
-is lost, none is stored twice, its job is taken over within the stated time, and its slot is free
-again within the store-retry bound (``stale_after_s`` plus one bounded database call).  Then an API
+is lost, none is stored twice, its jobs are re-queued within the stated time and finished by host b, and
+its slot is free again within the store-retry bound (``stale_after_s`` plus one bounded database call).  Then an API
 on a third host whose database link is cut answers 503 with ``Retry-After`` at once, never a hung
 request.  A study's points spread over both hosts, each stored once.  The figures are printed
 (``pytest -s``).  Root only (``ip netns``).
