@@ -113,7 +113,7 @@ def test_a_worker_host_cut_off_longer_than_the_stale_limit_during_a_burst(hosts_
     accepted, codes = [], []
     # long jobs first: each host has a slot running one when the link dies
     accepted += [stack.submit(LONG).json()["id"] for _ in range(6)]
-    deadline = time.monotonic() + 90
+    deadline = time.monotonic() + 180  # the workers' start: a minute with a busy loop per core (load average 15)
     while True:
         on_a = [j for j, (status, worker, _) in _workers_of(stack, accepted).items()
                 if status == "running" and worker and "fault1@" in worker]
@@ -154,7 +154,7 @@ def test_a_worker_host_cut_off_longer_than_the_stale_limit_during_a_burst(hosts_
     thread.join()
     # Host b takes the re-queued jobs when one of its slots is free and they reach the head of the queue,
     # behind the burst's backlog: a time that grows with the machine's load, so the test waits for it.
-    jobs, lost, _ = stack.outcome(accepted, timeout=180)
+    jobs, lost, _ = stack.outcome(accepted, timeout=300)
     if slot_free_s is None and _slot_given_up(stack, on_a):
         slot_free_s = time.monotonic() - cut_at  # freed only after the link came back (an upper bound)
     stored = Counter(m.group(1) for m in _log_lines(stack, r"job ([0-9a-f]{32}) attempt \d+ stored: "))
@@ -199,14 +199,16 @@ def test_the_api_cut_from_its_database_answers_503_with_retry_after(hosts_stack)
     base = f"http://{Host.address(API_CLIENTS)}:{port}"
     try:
         with httpx.Client(base_url=base, timeout=60) as client:
-            deadline = time.monotonic() + 60
+            # its start is no part of the scenario: waited for as long as a loaded machine needs (it took 60 s
+            # with a busy loop per core and load average 15), as long as the process lives
+            deadline = time.monotonic() + 240
             while True:
                 try:
                     if client.get("/v1/jobs").status_code == 200:
                         break
                 except httpx.TransportError:
                     pass
-                assert time.monotonic() < deadline, (stack.tmp / "api.log").read_text()[-2000:]
+                assert proc.poll() is None and time.monotonic() < deadline, (stack.tmp / "api.log").read_text()[-2000:]
                 time.sleep(0.3)
             assert client.post("/v1/jobs", json=SHORT).status_code == 202
             api.cut(API_DB)
@@ -227,7 +229,7 @@ def test_the_api_cut_from_its_database_answers_503_with_retry_after(hosts_stack)
     report("api-cut-from-database", requests=len(answers), http_503=sum(a[0] == 503 for a in answers),
            slowest_answer_s=slowest, back_after_restore_s=back_s)
     assert all(code == 503 and retry_after for code, retry_after, _ in answers), answers
-    assert slowest < CALL_BOUND_S + 5, answers  # bounded by the timeouts, not hung
+    assert slowest < CALL_BOUND_S + LOAD_MARGIN_S, answers  # bounded by the timeouts, not hung
 
 
 def test_a_study_runs_across_two_worker_hosts(hosts_stack):
@@ -243,7 +245,7 @@ def test_a_study_runs_across_two_worker_hosts(hosts_stack):
     r = stack.client.post("/v1/studies", json=body)
     assert r.status_code == 202, r.text
     study_id = r.json()["id"]
-    deadline = time.monotonic() + 180
+    deadline = time.monotonic() + 360  # two long points per host: 45 s each with a busy loop per core
     while (study := stack.client.get(f"/v1/studies/{study_id}").json())["status"] == "running":
         assert time.monotonic() < deadline, study
         time.sleep(0.5)
