@@ -45,8 +45,9 @@ import casadi as ca
 import numpy as np
 
 from solvers.ocp import PRESETS, parse_problem, solve
-from solvers.ocp.phase import grid_of
-from solvers.ocp.solver import guess_of, reset_caches
+from solvers.ocp.grid import grid_of
+from solvers.ocp.guess import guess_of
+from solvers.ocp.symbolic import reset_caches
 from solvers.transcription.nlp import DEFAULT_IPOPT, clear_cache
 
 IPOPT = {k: v for k, v in DEFAULT_IPOPT.items()}
@@ -115,7 +116,7 @@ HAND = {
 def _setup(name: str):
     """What both hand-written forms take from the preset: the problem, its phase and grid, the
     dynamics by hand, the scales, the bounds and trajlab's straight-line guess."""
-    problem = parse_problem(PRESETS[name]["params"])
+    problem = parse_problem(PRESETS[name]["params"]).phases[0].problem     # the preset's one phase
     ph, grid = problem.phase, grid_of(problem)
     xs = np.array([s.scale or max([abs(a) for a in (s.lower, s.upper, s.initial, s.final) if a not in (None, 0)] or [1])
                    for s in ph.states])

@@ -24,7 +24,7 @@ import time
 
 import solvers.ocp.solver as ocp_solver
 from solvers.ocp import PRESETS, parse_problem, solve
-from solvers.ocp.solver import reset_caches
+from solvers.ocp.symbolic import reset_caches
 from solvers.transcription.nlp import clear_cache
 
 ACCURACY = 1e-6

@@ -5,36 +5,42 @@ standard-library only, so the API process validates a problem and lists the pres
 loading numpy or CasADi; :func:`solve` and :class:`OcpSolution` are loaded on first use
 (PEP 562), together with CasADi.
 
-Modules: ``expressions`` (the safe grammar), ``problem`` (the typed dataclasses), ``spec``
-(params -> :class:`OcpProblem`, with ``fields``: the readers of single fields and sections), ``cases`` (presets with published optima), ``phases_spec`` (several phases: params ->
-:class:`MultiPhaseProblem`), ``phase_cases`` (their presets); with CasADi:
-``multiphase`` (the phases' blocks in one NLP), ``multisolve`` (:func:`solve` of several phases), ``symbolic`` (tree -> SX), ``phase`` (one phase -> a cached NLP, multiple shooting or LGL, with
-block derivatives), ``verify`` (DOP853 re-flight), ``limits`` (limits that hold between the
-nodes), ``terminal`` (final values that hold on the re-flight), ``grid`` (where the nodes sit: equal
-intervals or a refined mesh), ``refine`` (the grid refined to ``accuracy``, or on a terminal miss,
-through :mod:`solvers.transcription.refine`), ``solver`` (:func:`solve`).
+One model for one phase and several: a problem posed with the single-phase fields is the
+one-phase case of :class:`OcpProblem`, parsed, built, solved, refined, verified and reported by the
+same code (as dymos' ``Trajectory`` of ``Phase`` objects, rockit's ``Ocp(Stage)``).
+
+Modules, standard library only: ``expressions`` (the safe grammar), ``problem`` (the typed
+dataclasses: :class:`OcpProblem` of named phases, each a ``PhaseProblem`` to the transcription),
+``spec`` (params -> :class:`OcpProblem`), ``fields`` (the readers of single fields and sections),
+``phases_spec`` (several phases: names, windows in time, links), ``cases`` (presets with published
+optima).  With CasADi: ``symbolic`` (tree -> SX, the phase's functions cached per structure),
+``grid`` (where a phase's nodes sit), ``phase`` (one phase -> its NLP elements, multiple shooting or
+LGL, block derivatives), ``trajectory`` (the phases' blocks and their events in one cached NLP; one
+phase is its own NLP), ``scaling`` (a phase's scales, bounds and parameter vector; its answer
+unpacked), ``guess`` (a phase's initial guess: straight lines or a stored answer), ``verify`` (the
+DOP853 re-flight), ``terminal`` (final values that hold on the re-flight), ``check`` (one phase of an
+answer checked and reported), ``limits`` (path limits tightened where the re-flight exceeds them),
+``refine`` (every phase's grid refined to ``accuracy``, or on a terminal miss), ``solution`` (the
+solution and its report), ``solver`` (:class:`solvers.ocp.solver.OcpSolve`, the loop, and
+:func:`solve`).
 """
 from __future__ import annotations
 
 from solvers.ocp.cases import PRESETS
 from solvers.ocp.expressions import OcpInputError
-from solvers.ocp.phases_spec import MultiPhaseProblem
-from solvers.ocp.spec import OcpLimits, OcpProblem, parse_problem
+from solvers.ocp.problem import OcpProblem
+from solvers.ocp.spec import OcpLimits, parse_problem
 
-__all__ = ["PRESETS", "MultiPhaseProblem", "MultiPhaseSolution", "OcpInputError", "OcpLimits", "OcpProblem",
-           "OcpSolution", "parse_problem", "solve"]
+__all__ = ["PRESETS", "OcpInputError", "OcpLimits", "OcpProblem", "OcpSolution", "parse_problem", "solve"]
 
-_LAZY = {"OcpSolution": "solvers.ocp.solver", "MultiPhaseSolution": "solvers.ocp.multisolve"}
+_LAZY = {"OcpSolution": "solvers.ocp.solution"}
 
 
-def solve(problem, **kwargs):
-    """One phase (:func:`solvers.ocp.solver.solve`) or several (:func:`solvers.ocp.multisolve.solve_phases`),
-    as :func:`parse_problem` returned it; same keywords, the common protocol."""
-    if isinstance(problem, MultiPhaseProblem):
-        from solvers.ocp.multisolve import solve_phases
-        return solve_phases(problem, **kwargs)
-    from solvers.ocp.solver import solve as solve_one
-    return solve_one(problem, **kwargs)
+def solve(problem: OcpProblem, **kwargs):
+    """:func:`solvers.ocp.solver.solve` (one phase or several, as :func:`parse_problem` returned it;
+    the common protocol), loaded with CasADi on first use."""
+    from solvers.ocp.solver import solve as solve_problem
+    return solve_problem(problem, **kwargs)
 
 
 def __getattr__(name: str):

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from solvers.ocp.problem import OcpProblem
+from solvers.ocp.problem import PhaseProblem
 from solvers.transcription.lgl import lgl_nodes
 
 
@@ -76,7 +76,7 @@ class Grid:
         return left, right
 
 
-def grid_of(problem: OcpProblem) -> Grid:
+def grid_of(problem: PhaseProblem) -> Grid:
     tr = problem.transcription
     return Grid(method=tr.method, intervals=tr.intervals, control=tr.control, substeps=tr.substeps,
                 nodes=tr.nodes, boundaries=getattr(tr, "boundaries", None),

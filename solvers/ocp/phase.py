@@ -13,7 +13,7 @@ final time share a structure.
 What varies between jobs of one structure is an NLP parameter or a bound, never the graph: the
 constants, ``t0``, the scales of states, controls, time, parameters and constraints (all taken
 from the problem's numbers), and every bound.  The solver is built once per
-:meth:`solvers.ocp.spec.OcpProblem.structure` and cached
+:meth:`solvers.ocp.problem.PhaseProblem.structure` and cached
 (:func:`solvers.transcription.nlp.cached_solver`).
 
 Decision vector (scaled, ``value / scale``): ``[tf, theta (parameters), X (nx x N nodes,
@@ -29,7 +29,7 @@ import casadi as ca
 import numpy as np
 
 from solvers.ocp.grid import Grid, grid_of
-from solvers.ocp.spec import OcpProblem
+from solvers.ocp.problem import PhaseProblem
 from solvers.ocp.symbolic import PhaseFunctions
 from solvers.transcription.lgl import lgl_integration_matrix, lgl_nodes, lgl_weights
 from solvers.transcription.nlp import NLPSolver, cached_solver
@@ -118,10 +118,10 @@ class PhaseNLP:
     2-3x cheaper per iteration than CasADi's forward-over-reverse sweeps through the MX graph.
     """
 
-    def __init__(self, problem: OcpProblem, fns: PhaseFunctions, *, ipopt: dict | None = None,
+    def __init__(self, problem: PhaseProblem, fns: PhaseFunctions, *, ipopt: dict | None = None,
                  build: bool = True):
         """``build=False``: the layout and the elements only, no solver (a block of the
-        multi-phase NLP, :mod:`solvers.ocp.multiphase`)."""
+        problem's NLP of several phases, :mod:`solvers.ocp.trajectory`)."""
         self.fns, self.grid = fns, grid_of(problem)
         self.sign = -1.0 if problem.objective.sense == "maximize" else 1.0
         g = self.grid

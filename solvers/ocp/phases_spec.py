@@ -30,7 +30,7 @@ Standard library only (the API validates with it).
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 from solvers.ocp.expressions import (
     Boundary,
@@ -48,7 +48,7 @@ from solvers.ocp.fields import (
     object_at,
     unknown_fields,
 )
-from solvers.ocp.problem import Constraint, Objective, OcpProblem, TimeSpec
+from solvers.ocp.problem import Link, NamedPhase, Objective, OcpProblem, PhaseTime, TimeSpec
 
 PHASE_FIELDS = ("name", "states", "controls", "time", "expressions", "dynamics", "path", "boundary",
                 "transcription", "guess")
@@ -59,70 +59,6 @@ TIME_FIELDS = ("initial", "initial_lower", "initial_upper", "initial_guess", "fi
                "final_upper", "final_guess")
 _PHASE_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_-]*\Z")
 MAX_PHASES = 20
-
-
-@dataclass(frozen=True)
-class PhaseTime:
-    """A phase's time window: fixed or free ends with bounds; None where not given."""
-
-    initial: float | None = None
-    initial_lower: float | None = None
-    initial_upper: float | None = None
-    initial_guess: float | None = None
-    final: float | None = None
-    final_lower: float | None = None
-    final_upper: float | None = None
-    final_guess: float | None = None
-
-
-@dataclass(frozen=True)
-class NamedPhase:
-    """One phase: its name, its time window and the phase as a single-phase problem (top-level
-    constants, tables, parameters; its objective is its share of the integrand, no Mayer term;
-    ``phase.time.initial`` and ``final_guess`` hold the guesses of its t0 and tf)."""
-
-    name: str
-    time: PhaseTime
-    problem: OcpProblem
-
-
-@dataclass(frozen=True)
-class Link(Constraint):
-    phases: tuple[str, ...] = ()          # the phases it names, in the problem's order
-    non_consecutive: bool = False
-
-
-@dataclass(frozen=True)
-class MultiPhaseProblem:
-    """Several phases solved as one NLP (:mod:`solvers.ocp.multiphase`)."""
-
-    title: str
-    constants: tuple
-    tables: tuple
-    parameters: tuple
-    phases: tuple[NamedPhase, ...]
-    objective: Objective                  # Mayer term over events; the integrand lives in the phases
-    links: tuple[Link, ...]
-    time_links: tuple[int, ...]           # k: t0(k+1) = tf(k) (default); else t0(k+1) >= tf(k)
-    state_links: tuple[tuple[int, str], ...]   # (k, x): initial(x, k+1) = final(x, k)
-    from_job: str | None = None
-    plots: tuple[tuple[str, str], ...] = ()
-    accuracy: float | None = None         # mesh refinement of every phase (solvers.ocp.phase_refine)
-    accuracy_required: bool = True
-
-    @property
-    def phase_names(self) -> tuple[str, ...]:
-        return tuple(p.name for p in self.phases)
-
-    def phase(self, name: str) -> NamedPhase:
-        return self.phases[self.phase_names.index(name)]
-
-    def structure(self) -> tuple:
-        """What the NLP's graph depends on (the solver cache key)."""
-        from solvers.ocp.expressions import to_text
-        return (tuple(p.problem.structure() for p in self.phases),
-                None if self.objective.expr is None else to_text(self.objective.expr),
-                tuple(to_text(lk.expr) for lk in self.links), self.time_links, self.state_links)
 
 
 def _relocate(exc: OcpInputError, i: int) -> OcpInputError:
@@ -206,7 +142,7 @@ def _mid(lo, hi):
     return lo if lo is not None else hi
 
 
-def parse_phases(params: dict, limits: OcpLimits, parse_problem) -> MultiPhaseProblem:
+def parse_phases(params: dict, limits: OcpLimits, parse_problem) -> OcpProblem:
     """Validate a multi-phase ``params`` object (module docstring); :class:`OcpInputError` otherwise.
     ``parse_problem``: the single-phase parser (:func:`solvers.ocp.spec.parse_problem`, which calls
     this one: passed in, so neither module imports the other)."""
@@ -351,7 +287,7 @@ def parse_phases(params: dict, limits: OcpLimits, parse_problem) -> MultiPhasePr
             if nm not in reportable:
                 raise OcpInputError(f"{P}.plots.{i}.{j}", f"'{nm}' is not a state, control, expression of a phase or t")
         plots.append((pair[0], pair[1]))
-    return MultiPhaseProblem(title=first.title, constants=first.constants, tables=first.tables,
+    return OcpProblem(title=first.title, constants=first.constants, tables=first.tables,
                              parameters=first.parameters, phases=tuple(phases), objective=objective,
                              links=tuple(links), time_links=tuple(time_links), state_links=tuple(state_links),
                              from_job=from_job, plots=tuple(plots), accuracy=accuracy,
@@ -368,4 +304,4 @@ def _events(expr) -> set[tuple]:
     return out
 
 
-__all__ = ["Link", "MultiPhaseProblem", "NamedPhase", "PhaseTime", "check_order", "parse_phases"]
+__all__ = ["check_order", "parse_phases"]

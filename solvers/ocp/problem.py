@@ -1,8 +1,12 @@
 """The ``ocp`` problem as typed, frozen dataclasses: what :func:`solvers.ocp.spec.parse_problem` returns.
 
-A phase (states, controls, time, expressions, dynamics, path, boundary, transcription, guess) is
-its own dataclass, :class:`Phase`, so that several phases can be a list of them later; the
-constants, tables, parameters and the objective belong to the problem.  Standard library only.
+One model for one phase and several (as dymos' ``Trajectory`` of ``Phase`` objects): an
+:class:`OcpProblem` is a sequence of named phases (:class:`NamedPhase`), their links, the shared
+constants, tables and parameters and the objective; a problem posed with the single-phase fields
+is the one-phase case (``single``: its phase has no name, its time starts where the problem says
+and its objective's Mayer term is the phase's own).  Each phase is seen by the transcription as a
+:class:`PhaseProblem`: the :class:`Phase` with the problem's constants, tables, parameters and the
+phase's share of the objective.  Standard library only.
 """
 from __future__ import annotations
 
@@ -127,7 +131,11 @@ class Phase:
 
 
 @dataclass(frozen=True)
-class OcpProblem:
+class PhaseProblem:
+    """One phase as the transcription sees it (:mod:`solvers.ocp.phase`, :mod:`solvers.ocp.symbolic`):
+    the phase, the problem's constants, tables and parameters, and the phase's share of the objective
+    (its integrand; the Mayer term too when the phase is the whole problem)."""
+
     title: str
     constants: tuple[tuple[str, float], ...]
     tables: tuple[TableDecl, ...]
@@ -164,3 +172,79 @@ class OcpProblem:
             ph.time.final is None,
             replace(ph.transcription, max_refinements=0),   # the rounds do not shape the NLP
         )
+
+
+@dataclass(frozen=True)
+class PhaseTime:
+    """A phase's time window: fixed or free ends with bounds; None where not given."""
+
+    initial: float | None = None
+    initial_lower: float | None = None
+    initial_upper: float | None = None
+    initial_guess: float | None = None
+    final: float | None = None
+    final_lower: float | None = None
+    final_upper: float | None = None
+    final_guess: float | None = None
+
+
+@dataclass(frozen=True)
+class NamedPhase:
+    """One phase of the problem: its name ("" for a problem posed as one phase), its time window and
+    the phase as the transcription sees it (``problem.phase.time.initial`` and ``final_guess`` hold
+    the guesses of its t0 and tf)."""
+
+    name: str
+    time: PhaseTime
+    problem: PhaseProblem
+
+
+@dataclass(frozen=True)
+class Link(Constraint):
+    phases: tuple[str, ...] = ()          # the phases it names, in the problem's order
+    non_consecutive: bool = False
+
+
+@dataclass(frozen=True)
+class OcpProblem:
+    """The problem: phases in time order, linked, solved as one NLP (module docstring)."""
+
+    title: str
+    constants: tuple[tuple[str, float], ...]
+    tables: tuple[TableDecl, ...]
+    parameters: tuple[ParameterDecl, ...]
+    phases: tuple[NamedPhase, ...]
+    objective: Objective                  # several phases: the Mayer term over events (integrands in the phases)
+    links: tuple[Link, ...] = ()
+    time_links: tuple[int, ...] = ()      # k: t0(k+1) = tf(k) (default); else t0(k+1) >= tf(k)
+    state_links: tuple[tuple[int, str], ...] = ()   # (k, x): initial(x, k+1) = final(x, k)
+    from_job: str | None = None
+    plots: tuple[tuple[str, str], ...] = ()
+    accuracy: float | None = None         # mesh refinement of every phase (solvers.ocp.refine)
+    accuracy_required: bool = True        # False: a refinement that misses ``accuracy`` ends with a note
+    single: bool = False                  # posed with the single-phase fields (no ``phases``)
+
+    @property
+    def phase_names(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.phases)
+
+    def named(self, name: str) -> NamedPhase:
+        return self.phases[self.phase_names.index(name)]
+
+    def on_phases(self, problems) -> OcpProblem:
+        """The same problem with each phase's :class:`PhaseProblem` replaced (a refined grid)."""
+        return replace(self, phases=tuple(replace(ph, problem=p) for ph, p in zip(self.phases, problems)))
+
+    def __getattr__(self, name: str):
+        # A problem posed as one phase reads its phase's fields as the spec names them (problem.states).
+        if name in PHASE_FIELDS and self.single:
+            return getattr(self.phases[0].problem.phase, name)
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
+    def structure(self) -> tuple:
+        """What the NLP's graph depends on (the solver cache key)."""
+        if self.single:
+            return self.phases[0].problem.structure()
+        return (tuple(p.problem.structure() for p in self.phases),
+                None if self.objective.expr is None else to_text(self.objective.expr),
+                tuple(to_text(lk.expr) for lk in self.links), self.time_links, self.state_links)

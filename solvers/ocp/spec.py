@@ -40,10 +40,13 @@ from solvers.ocp.problem import (
     Constraint,
     ControlDecl,
     Guess,
+    NamedPhase,
     Objective,
     OcpProblem,
     ParameterDecl,
     Phase,
+    PhaseProblem,
+    PhaseTime,
     StateDecl,
     TableDecl,
     TimeSpec,
@@ -105,12 +108,25 @@ class _Names:
 
 def parse_problem(params: dict, limits: OcpLimits = OcpLimits()) -> OcpProblem:
     """Validate the spec's ``params`` object and return the problem; :class:`OcpInputError` otherwise."""
+    if not isinstance(params, dict):
+        raise OcpInputError("params", "expected an object")
+    if params.get("phases") is not None:     # several phases: solvers.ocp.phases_spec (which parses each phase here)
+        from solvers.ocp.phases_spec import parse_phases
+        return parse_phases(params, limits, parse_phase_problem)
+    one = parse_phase_problem(params, limits)
+    t = one.phase.time
+    window = PhaseTime(initial=t.initial, final=t.final, final_lower=t.final_lower, final_upper=t.final_upper,
+                       final_guess=t.final_guess)
+    return OcpProblem(title=one.title, constants=one.constants, tables=one.tables, parameters=one.parameters,
+                      phases=(NamedPhase("", window, one),), objective=one.objective,
+                      from_job=one.phase.guess.from_job, plots=one.plots, accuracy=one.accuracy,
+                      accuracy_required=one.accuracy_required, single=True)
+
+
+def parse_phase_problem(params: dict, limits: OcpLimits = OcpLimits()) -> PhaseProblem:
     P = "params"
     if not isinstance(params, dict):
         raise OcpInputError(P, "expected an object")
-    if params.get("phases") is not None:     # several phases: solvers.ocp.phases_spec (which parses each phase here)
-        from solvers.ocp.phases_spec import parse_phases
-        return parse_phases(params, limits, parse_problem)
     unknown_fields(params, TOP_FIELDS, P)
     title = params.get("title") or ""
     if not isinstance(title, str) or len(title) > 500:
@@ -253,7 +269,7 @@ def parse_problem(params: dict, limits: OcpLimits = OcpLimits()) -> OcpProblem:
     phase = Phase(states=tuple(states), controls=tuple(controls), time=time,
                   expressions=tuple(expressions), dynamics=tuple(dynamics), path=path,
                   boundary=boundary, transcription=transcription, guess=guess)
-    return OcpProblem(title=title, constants=tuple(constants), tables=tuple(tables),
+    return PhaseProblem(title=title, constants=tuple(constants), tables=tuple(tables),
                       parameters=tuple(parameters), phase=phase, objective=objective,
                       accuracy=accuracy, accuracy_required=accuracy_required, plots=tuple(plots))
 
@@ -287,7 +303,7 @@ def _declarations(params: dict, field: str, names: _Names, limits: OcpLimits) ->
     return out
 
 
-def referenced_names(problem: OcpProblem) -> set[str]:
+def referenced_names(problem: PhaseProblem) -> set[str]:
     """Every name some expression of the problem uses (to warn about unused declarations)."""
     trees = [e for _, e in problem.expressions] + list(problem.dynamics)
     trees += [c.expr for c in problem.path + problem.boundary]

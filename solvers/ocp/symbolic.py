@@ -15,6 +15,7 @@ Mayer term.
 """
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -23,7 +24,7 @@ import numpy as np
 
 from solvers.models.tables import clamp
 from solvers.ocp.expressions import BinOp, Boundary, EventTime, Expr, Name, Neg, Num
-from solvers.ocp.spec import OcpProblem, TableDecl
+from solvers.ocp.problem import PhaseProblem, TableDecl
 
 _UNARY = {
     "sin": ca.sin, "cos": ca.cos, "tan": ca.tan, "asin": ca.asin, "acos": ca.acos, "atan": ca.atan,
@@ -95,7 +96,7 @@ class PhaseFunctions:
     nboundary: int
 
 
-def phase_functions(problem: OcpProblem) -> PhaseFunctions:
+def phase_functions(problem: PhaseProblem) -> PhaseFunctions:
     ph = problem.phase
     nx, nu = len(ph.states), len(ph.controls)
     ntheta, nc = len(problem.parameters), len(problem.constants)
@@ -140,3 +141,29 @@ def phase_functions(problem: OcpProblem) -> PhaseFunctions:
                          ["t0", "tf", "x0", "xf", "u0", "uf", "theta", "c"], ["b", "mayer"])
     return PhaseFunctions(rhs=rhs, path=pathf, named=namedf, events=events, nx=nx, nu=nu,
                           ntheta=ntheta, nc=nc, nq=nq, npath=len(path), nboundary=len(ev))
+
+
+_FUNCTIONS: dict[tuple, PhaseFunctions] = {}
+_FUNCTIONS_LOCK = threading.Lock()
+
+
+def functions_of(problem: PhaseProblem) -> PhaseFunctions:
+    """The phase's SX functions, built once per structure (grid aside) in this process."""
+    key = problem.structure()[:-1]          # the functions do not depend on the grid
+    with _FUNCTIONS_LOCK:
+        fns = _FUNCTIONS.get(key)
+    if fns is None:
+        fns = phase_functions(problem)
+        with _FUNCTIONS_LOCK:
+            if len(_FUNCTIONS) > 32:
+                _FUNCTIONS.clear()
+            _FUNCTIONS[key] = fns
+    return fns
+
+
+def reset_caches() -> None:
+    """Forget the symbolic functions (benchmarks time a cold build with this and
+    :func:`solvers.transcription.nlp.clear_cache`)."""
+    with _FUNCTIONS_LOCK:
+        _FUNCTIONS.clear()
+    table_function.cache_clear()

@@ -57,7 +57,7 @@ def rejected(body: dict, path: str, *words: str) -> OcpInputError:
 def test_base_problem_and_every_preset_parse():
     p = parse_problem(BASE)
     assert [s.name for s in p.states] == ["x", "y", "v"]
-    assert p.phase.transcription.method == "multiple_shooting"
+    assert p.single and p.transcription.method == "multiple_shooting"
     for preset in PRESETS.values():
         parse_problem(preset["params"])
 
@@ -314,7 +314,7 @@ def test_fuzz_parsed_trees_map_onto_casadi(expr):
         problem = parse_problem(with_dynamics(expr))
     except OcpInputError:
         return
-    fns = phase_functions(problem)
+    fns = phase_functions(problem.phases[0].problem)
     out = fns.rhs(0.5, np.array([1.0, 2.0, 3.0]), np.array([0.3]), np.array([0.5]),
                   np.array([9.80665, 0.5]), 0.0, 2.0)
     assert out.shape == (3, 1)

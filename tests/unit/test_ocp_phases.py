@@ -13,9 +13,9 @@ from scipy.optimize import fsolve
 
 from app.kinds.base import JobFailure
 from app.kinds.ocp.params import OcpParams
-from app.kinds.ocp.phase_kind import check_warm_start
+from app.kinds.ocp.warm_start import check_warm_start
 from solvers.common import Outcome
-from solvers.ocp import PRESETS, MultiPhaseProblem, OcpInputError, parse_problem, solve
+from solvers.ocp import PRESETS, OcpInputError, OcpProblem, parse_problem, solve
 
 GODDARD3 = PRESETS["goddard-three-phases"]["params"]
 
@@ -38,7 +38,7 @@ def goddard(**edit):
 # --- parsing -------------------------------------------------------------------------------------
 def test_default_linkage_is_time_and_every_shared_state():
     mp = parse_problem(GODDARD3)
-    assert isinstance(mp, MultiPhaseProblem) and mp.phase_names == ("boost", "singular", "coast")
+    assert isinstance(mp, OcpProblem) and not mp.single and mp.phase_names == ("boost", "singular", "coast")
     assert mp.time_links == (0, 1)
     assert mp.state_links == tuple((k, x) for k in (0, 1) for x in ("h", "v", "m"))
     # each phase is a single-phase problem with the top-level constants
@@ -113,7 +113,7 @@ def test_phases_and_single_phase_fields_together_and_phase_errors_located():
 
 def test_the_api_model_round_trips_and_422s_name_the_field():
     m = OcpParams.model_validate(GODDARD3)
-    assert isinstance(m.problem, MultiPhaseProblem)
+    assert isinstance(m.problem, OcpProblem)
     again = OcpParams.model_validate(m.model_dump(mode="json"))      # a stored job's params, every default
     assert again.problem.structure() == m.problem.structure()
     bad = goddard()
@@ -139,7 +139,7 @@ def test_a_study_sweeps_a_phase_bound_by_index_or_by_name():
     for point in points:
         resolved = resolve_params(spec, point.params, None)
         problem = spec.params_model.model_validate(resolved).problem
-        assert problem.phase("singular").problem.transcription.intervals == 30
+        assert problem.named("singular").problem.transcription.intervals == 30
 
 
 # --- solves --------------------------------------------------------------------------------------
@@ -310,7 +310,7 @@ def test_a_time_gap_link_and_an_integrand_of_one_phase():
     p["links"] = [{"expr": 't0("burn") - tf("coast")', "lower": 2.0, "upper": 2.0}]    # a 2 s ignition delay
     p["objective"] = {"sense": "minimize", "integrand": {"burn": "T/ve"}}                 # the propellant burnt
     problem = parse_problem(p)
-    assert problem.time_links == () and problem.phase("coast").problem.objective.integrand is None
+    assert problem.time_links == () and problem.named("coast").problem.objective.integrand is None
     sol = solve(problem)
     assert sol.status.outcome is Outcome.OPTIMAL, sol.status.message
     coast, burn = sol.phases

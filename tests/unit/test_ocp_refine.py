@@ -110,16 +110,16 @@ def _growth(intervals: int, substeps: int, accuracy=None):
 
 
 def test_the_local_error_of_each_interval_is_rk4s_own():
-    from solvers.ocp.solver import _solve_on_grid
+    from solvers.ocp.solver import OcpSolve
 
     m, s = 5, 1
-    sol = _solve_on_grid(_growth(m, s, accuracy=1e-3), initial_guess=None, on_progress=None, should_stop=None,
-                         ipopt=None)
+    problem = _growth(m, s, accuracy=1e-3)
+    sol = OcpSolve(problem).on_grid(problem, None, None)
     h = 2.0 / m / s
     R = (1 + h + h**2 / 2 + h**3 / 6 + h**4 / 24) ** s          # RK4's growth factor over one interval
     x_nodes = R ** np.arange(m)
     exact = np.abs(math.exp(h * s) - R) * x_nodes              # from the node, exact flow vs RK4
-    assert sol.interval_errors["state"]() == pytest.approx(exact, rel=1e-5)
+    assert sol.interval_errors[0]["state"]() == pytest.approx(exact, rel=1e-5)
     # and the global error the verification reports is the drift at the last node
     drift = abs(math.exp(2.0) - R**m)
     assert sol.verification["max_state_difference_scaled_overall"] == pytest.approx(drift, rel=1e-5)
@@ -208,11 +208,11 @@ def test_without_accuracy_the_grid_is_the_one_given():
     ("lgl", (0.0, 0.1, 0.5, 0.6, 1.0), (4, 6, 5, 4)),
 ])
 def test_a_non_uniform_mesh_solves_and_holds_its_path_limit(method, boundaries, nodes):
-    from solvers.ocp.refine import on_mesh
+    from solvers.ocp.refine import on_meshes
 
     params = copy.deepcopy(PRESETS["bryson-denham"]["params"])
     params["transcription"].update(method=method, intervals=4, nodes=4)
-    sol = solve(on_mesh(parse_problem(params), rf.Mesh(boundaries, nodes)))
+    sol = solve(on_meshes(parse_problem(params), [rf.Mesh(boundaries, nodes)]))
     assert sol.status.outcome is Outcome.OPTIMAL, sol.status.message
     t = np.asarray(sol.trajectory["t"])
     if nodes is None:

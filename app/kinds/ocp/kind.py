@@ -21,13 +21,11 @@ from app.kinds.base import (
 from app.kinds.ocp.footprint import MEMORY, compare_series, trajectory_table
 from app.kinds.ocp.headlines import headlines
 from app.kinds.ocp.params import OcpParams
-from app.kinds.ocp.phase_kind import check_warm_start, misfit, phases_cost
 from app.kinds.ocp.plots import plots
 from app.kinds.ocp.result import OcpResult, build_result
+from app.kinds.ocp.warm_start import WARM_START_FIELD, load_warm_start, misfit
 from app.results.tables import columns_at
 from solvers.ocp import cases
-
-WARM_START_FIELD = "guess.from_job"
 
 
 def _presets() -> list[Preset]:
@@ -44,30 +42,13 @@ def _presets() -> list[Preset]:
 PRESETS = _presets()
 
 
-def _warm_start(ctx: JobContext, job_id: str) -> dict:
-    """The stored result of another ``ocp`` job; a clean failure naming the field when it is missing,
-    not succeeded or not an ``ocp`` result (never ``internal``)."""
-    try:
-        stored = ctx.load_result(job_id)
-    except LookupError as exc:
-        raise JobFailure("invalid_input", f"{WARM_START_FIELD}: {exc}") from None
-    tr = stored.get("trajectory") if isinstance(stored, dict) else None
-    if isinstance(stored, dict) and stored.get("phases"):
-        return stored            # several phases: app.kinds.ocp.phase_kind.check_warm_start
-    if not (isinstance(tr, dict) and isinstance(tr.get("t"), list) and len(tr["t"]) >= 2):
-        raise JobFailure("invalid_input", f"{WARM_START_FIELD}: job {job_id} has no ocp trajectory to start from")
-    return stored
-
-
 def run(params: OcpParams, ctx: JobContext) -> RunOutcome:
     import solvers.ocp as solver
 
     t_start = time.perf_counter()
     problem = params.problem
     from_job = params.guess.from_job
-    guess = _warm_start(ctx, from_job) if from_job else None
-    if guess is not None:
-        check_warm_start(guess, problem, job_id=from_job, field=WARM_START_FIELD)
+    guess = load_warm_start(ctx, from_job, problem) if from_job else None
     try:
         sol = solver.solve(problem, initial_guess=guess, on_progress=ctx.progress, should_stop=ctx.should_stop)
     except (KeyError, TypeError, ValueError) as exc:
@@ -118,11 +99,25 @@ def _text_size(params: dict) -> int:
     return size + len(str((params.get("objective") or {}).get("integrand") or ""))
 
 
+def _phase_bodies(params: dict) -> list[dict]:
+    """Each phase as a single-phase body (its share of the integrand, the problem's accuracy); a problem
+    posed as one phase is its own."""
+    if not params.get("phases"):
+        return [params]
+    integrand = (params.get("objective") or {}).get("integrand")
+    return [{**ph, "objective": {"integrand": integrand.get(ph.get("name")) if isinstance(integrand, dict)
+                                 else integrand}, "accuracy": params.get("accuracy")}
+            for ph in params["phases"] if isinstance(ph, dict)]
+
+
 def cost(params: dict) -> float:
-    """Work units: intervals x steps per interval x (states + controls) x expression size, scaled to the
-    reference above; times the refinement rounds when ``accuracy`` asks for mesh refinement."""
-    if params.get("phases"):
-        return phases_cost(params, cost)
+    """Work units: the sum over the phases of intervals x steps per interval x (states + controls) x
+    expression size, scaled to the reference above; times the refinement rounds when ``accuracy`` asks
+    for mesh refinement."""
+    return sum(_phase_cost(body) for body in _phase_bodies(params))
+
+
+def _phase_cost(params: dict) -> float:
     tr = params.get("transcription") or {}
     steps = float(tr.get("substeps", 2)) if tr.get("method", "multiple_shooting") == "multiple_shooting" \
         else float(tr.get("nodes", 4)) - 1.0

@@ -192,63 +192,33 @@ def _map(d) -> dict:
     return {str(k): json_float(v) if v is not None else None for k, v in (d or {}).items()}
 
 
+def _phase(p: dict) -> dict:
+    return {"name": p["name"], "t0": json_float(p["t0"]), "tf": json_float(p["tf"]),
+            "initial": _map(p["initial"]), "final": _map(p["final"]),
+            "trajectory": {str(k): json_value(v) for k, v in p["trajectory"].items()},
+            "verification": json_value(p["verification"]), "solver": json_value(p["solver"])}
+
+
 def build_result(sol, params, *, wall_time_s: float, warm_start: str | None = None) -> dict:
-    """The JSON result of an :class:`solvers.ocp.OcpSolution` (plain floats and lists), or of a
-    :class:`solvers.ocp.MultiPhaseSolution` (``phases``)."""
-    if getattr(sol, "phases", None) is not None:
-        return _phases_result(sol, params, wall_time_s=wall_time_s, warm_start=warm_start)
-    s = sol.status
-    solver = dict(json_value(getattr(sol, "solver", None) or {}))
-    solver.setdefault("method", params.transcription.method)
-    solver.setdefault("intervals", params.transcription.intervals)
-    solver.update({"status": s.solver_status, "outcome": s.outcome.value, "message": s.message or None,
-                   "iterations": int(s.iterations), "build_time_s": json_float(s.build_time_s),
-                   "solve_time_s": json_float(s.solve_time_s),
-                   "max_constraint_violation": json_float(s.max_constraint_violation)})
-    units = {d.name: d.unit for d in (*params.states, *params.controls) if d.unit}
-    return {
-        "title": params.title,
-        "objective": {"value": json_float(sol.objective) if sol.objective is not None else None,
-                      "sense": sol.sense or (params.objective.sense if params.objective else "minimize")},
-        "t0": json_float(sol.t0) if sol.t0 is not None else None,
-        "tf": json_float(sol.tf) if sol.tf is not None else None,
-        "initial": _map(sol.initial),
-        "final": _map(sol.final),
-        "parameters": _map(sol.parameters),
-        "trajectory": {str(k): json_value(v) for k, v in (sol.trajectory or {}).items()},
-        "units": units,
-        "verification": json_value(sol.verification) if sol.verification is not None else None,
-        "solver": solver,
-        "plots": [list(p) for p in params.plots],
-        "warm_start": warm_start,
-        "wall_time_s": json_float(wall_time_s),
-        "notes": [str(n) for n in (getattr(sol, "notes", None) or [])],
-    }
-
-
-def _phases_result(sol, params, *, wall_time_s: float, warm_start: str | None) -> dict:
-    """Several phases: the single phase's top-level fields (``initial`` of the first phase, ``final``
-    of the last, no top-level ``trajectory``) and one block per phase."""
+    """The JSON result of an :class:`solvers.ocp.OcpSolution` (plain floats and lists): one phase at the
+    top level (``trajectory``), several in ``phases`` (``initial`` of the first, ``final`` of the last)."""
     s = sol.status
     solver = dict(json_value(sol.solver))
     solver.update({"status": s.solver_status, "outcome": s.outcome.value, "message": s.message or None,
                    "iterations": int(s.iterations), "build_time_s": json_float(s.build_time_s),
                    "solve_time_s": json_float(s.solve_time_s),
                    "max_constraint_violation": json_float(s.max_constraint_violation)})
-    units = {d.name: d.unit for ph in params.phases for d in (*ph.states, *ph.controls) if d.unit}
-    phases = [{"name": p["name"], "t0": json_float(p["t0"]), "tf": json_float(p["tf"]),
-               "initial": _map(p["initial"]), "final": _map(p["final"]),
-               "trajectory": {str(k): json_value(v) for k, v in p["trajectory"].items()},
-               "verification": json_value(p["verification"]), "solver": json_value(p["solver"])}
-              for p in sol.phases]
-    return {
+    phases = [_phase(p) for p in sol.phases]
+    declared = (*params.states, *params.controls) if sol.single else \
+        [d for ph in params.phases for d in (*ph.states, *ph.controls)]
+    out = {
         "title": params.title,
         "objective": {"value": json_float(sol.objective), "sense": sol.sense},
         "t0": json_float(sol.t0), "tf": json_float(sol.tf),
         "initial": phases[0]["initial"], "final": phases[-1]["final"],
         "parameters": _map(sol.parameters),
-        "phases": phases,
-        "units": units,
+        **({"trajectory": phases[0]["trajectory"]} if sol.single else {"phases": phases}),
+        "units": {d.name: d.unit for d in declared if d.unit},
         "verification": json_value(sol.verification),
         "solver": solver,
         "plots": [list(p) for p in params.plots],
@@ -256,3 +226,4 @@ def _phases_result(sol, params, *, wall_time_s: float, warm_start: str | None) -
         "wall_time_s": json_float(wall_time_s),
         "notes": [str(n) for n in sol.notes],
     }
+    return out

@@ -1,6 +1,11 @@
-"""Several ``ocp`` phases as one NLP: each phase's block from the single-phase builder, linked by events.
+"""An ``ocp`` problem's phases as one NLP: each phase's block from :class:`solvers.ocp.phase.PhaseNLP`,
+linked by events.
 
-Every phase is transcribed by :class:`solvers.ocp.phase.PhaseNLP` (``build=False``: its
+A problem posed as one phase (``OcpProblem.single``) is the one-phase case with nothing to link: its
+initial time is fixed, its boundary conditions and its objective's Mayer term are the phase's own,
+so its NLP is the phase's own NLP, cached per structure, and its block covers every column.
+
+With several phases, every phase is transcribed by :class:`solvers.ocp.phase.PhaseNLP` (``build=False``: its
 elements and layout on its own decision vector ``[tf, theta, X, U]``); this module places the
 phases side by side in one decision vector ``[theta, (t0, tf, X, U) of phase 1, of phase 2, ...]``
 (the parameters ``theta`` shared), gives each phase its own initial time as a decision variable
@@ -22,8 +27,8 @@ import casadi as ca
 import numpy as np
 
 from solvers.ocp.phase import Element, PhaseNLP, positive_scale, solver_of_elements
-from solvers.ocp.phases_spec import MultiPhaseProblem
-from solvers.ocp.symbolic import to_sx
+from solvers.ocp.problem import OcpProblem, PhaseProblem
+from solvers.ocp.symbolic import functions_of, to_sx
 from solvers.transcription.nlp import cached_solver
 
 TF_MIN_FRACTION = 1e-6      # a phase lasts at least this fraction of its time scale
@@ -31,13 +36,13 @@ TF_MIN_FRACTION = 1e-6      # a phase lasts at least this fraction of its time s
 
 @dataclass
 class Block:
-    """One phase inside the multi-phase NLP: its single-phase NLP block and where it sits."""
+    """One phase inside the problem's NLP: its phase NLP block and where it sits."""
 
     name: str
-    problem: object           # the phase as an OcpProblem
+    problem: PhaseProblem
     nlp: PhaseNLP
     colmap: np.ndarray        # local column of the phase's z -> global column
-    t0_col: int
+    t0_col: int | None        # None: t0 is fixed (the one-phase case)
     p_slice: slice
 
     @property
@@ -49,12 +54,19 @@ class Block:
         return self.colmap[np.asarray(local, int)]
 
 
-class MultiPhaseNLP:
-    """The assembled NLP of a :class:`MultiPhaseProblem` (module docstring)."""
+class TrajectoryNLP:
+    """The assembled NLP of an :class:`OcpProblem` (module docstring)."""
 
-    def __init__(self, mp: MultiPhaseProblem, functions_of, *, ipopt: dict | None = None):
+    def __init__(self, mp: OcpProblem, *, ipopt: dict | None = None):
         self.mp = mp
         self.sign = -1.0 if mp.objective.sense == "maximize" else 1.0
+        if mp.single:
+            ph = mp.phases[0]
+            nlp = PhaseNLP(ph.problem, functions_of(ph.problem), ipopt=ipopt)
+            self.blocks = [Block(ph.name, ph.problem, nlp, np.arange(nlp.nz), None, slice(0, nlp.np_))]
+            self.nz, self.np_, self.links_p = nlp.nz, nlp.np_, slice(nlp.np_, nlp.np_)
+            self.solver, self.was_cached, self.layout = nlp.solver, nlp.was_cached, nlp.layout
+            return
         nth = len(mp.parameters)
         self.blocks: list[Block] = []
         col, pos = nth, 0
@@ -157,8 +169,10 @@ class MultiPhaseNLP:
         return Element("events", fn, cols[None, :], np.zeros(1), mp.objective.expr is not None)
 
     def event_bounds(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Bounds of the events element's rows, and the links' scales (the tail of p)."""
+        """Bounds of the events element's rows, and the links' scales (the tail of p); none for one phase."""
         mp, n = self.mp, len(self.blocks)
+        if mp.single:
+            return np.zeros(0), np.zeros(0), np.zeros(0)
         lo, hi = [], []
         for k in range(n - 1):
             lo.append(0.0)
