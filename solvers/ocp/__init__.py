@@ -11,9 +11,10 @@ same code (as dymos' ``Trajectory`` of ``Phase`` objects, rockit's ``Ocp(Stage)`
 
 Modules, standard library only: ``expressions`` (the safe grammar), ``problem`` (the typed
 dataclasses: :class:`OcpProblem` of named phases, each a ``PhaseProblem`` to the transcription),
-``spec`` (params -> :class:`OcpProblem`), ``fields`` (the readers of single fields and sections),
-``phases_spec`` (several phases: names, windows in time, links), ``cases`` (presets with published
-optima).  With CasADi: ``symbolic`` (tree -> SX, the phase's functions cached per structure),
+``readers`` (single values, the namespace of names, the size limits), ``spec`` (params ->
+:class:`OcpProblem`: what the phases share, the one-phase case, several phases), ``phase_spec`` (one
+phase's params -> its ``PhaseProblem``, the same for both forms), ``phases_spec`` (what only several
+phases have: names, windows in time, links), ``cases`` (presets with published optima).  With CasADi: ``symbolic`` (tree -> SX, the phase's functions cached per structure),
 ``grid`` (where a phase's nodes sit), ``phase`` (one phase -> its NLP elements, multiple shooting or
 LGL, block derivatives), ``trajectory`` (the phases' blocks and their events in one cached NLP; one
 phase is its own NLP), ``scaling`` (a phase's scales, bounds and parameter vector; its answer

@@ -1,14 +1,13 @@
-"""Several phases of an ``ocp`` problem (``../shared/specs/ocp.md``, "Several phases"): params -> typed problem.
+"""What only several phases of an ``ocp`` problem have (``../shared/specs/ocp.md``, "Several phases").
 
 ``params.phases`` is a list of phases, each a single-phase block (``name``, ``states``,
 ``controls``, ``time``, ``expressions``, ``dynamics``, ``path``, ``boundary``, ``transcription``,
 ``guess``); ``constants``, ``tables``, ``parameters``, ``objective``, ``links``, ``guess.from_job``
-and ``plots`` stay at the top level.  Each phase is parsed by the single-phase parser
-(:func:`solvers.ocp.spec.parse_problem`) with the top-level constants, tables and parameters, so a
-phase is an :class:`OcpProblem` whose objective is that phase's share of the integrand; its
-errors are re-located under ``params.phases.<i>``.  The top-level events (the objective's
-``expr`` and ``links``) are parsed with the multi-phase event functions ``initial(x, "phase")``,
-``final(x, "phase")``, ``t0("phase")``, ``tf("phase")``.
+and ``plots`` stay at the top level.  Each phase is read by the one phase parser
+(:func:`solvers.ocp.phase_spec.parse_phase`, called by :func:`solvers.ocp.spec.parse_problem`);
+here: the phases' names, their windows in time, the guesses of their ends, and the links, parsed
+with the multi-phase event functions ``initial(x, "phase")``, ``final(x, "phase")``,
+``t0("phase")``, ``tf("phase")``.
 
 Rules (each a 422 naming the field):
 
@@ -30,25 +29,10 @@ Standard library only (the API validates with it).
 from __future__ import annotations
 
 import re
-from dataclasses import replace
 
-from solvers.ocp.expressions import (
-    Boundary,
-    EventTime,
-    OcpInputError,
-    Scope,
-    parse_expression,
-    walk,
-)
-from solvers.ocp.fields import (
-    OcpLimits,
-    constraints_at,
-    list_at,
-    number_at,
-    object_at,
-    unknown_fields,
-)
-from solvers.ocp.problem import Link, NamedPhase, Objective, OcpProblem, PhaseTime, TimeSpec
+from solvers.ocp.expressions import Boundary, EventTime, OcpInputError, closest, walk
+from solvers.ocp.problem import Link, NamedPhase, PhaseTime
+from solvers.ocp.readers import OcpLimits, constraints_at, list_at, number_at, object_at, unknown_fields
 
 PHASE_FIELDS = ("name", "states", "controls", "time", "expressions", "dynamics", "path", "boundary",
                 "transcription", "guess")
@@ -61,13 +45,46 @@ _PHASE_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_-]*\Z")
 MAX_PHASES = 20
 
 
-def _relocate(exc: OcpInputError, i: int) -> OcpInputError:
-    """An error of phase ``i``'s single-phase parse, named where the user wrote it."""
-    path = exc.path
-    for top in ("params.constants", "params.tables", "params.parameters", "params.objective", "params.title"):
-        if path == top or path.startswith(top + "."):
-            return exc
-    return OcpInputError("params.phases." + str(i) + path[len("params"):], exc.reason)
+def phase_names(raw_phases: list) -> list[str]:
+    """The phases' names: unique, identifiers (hyphens allowed); each phase's fields known."""
+    names: list[str] = []
+    for i, ph in enumerate(raw_phases):
+        ph = object_at(ph, f"params.phases.{i}")
+        unknown_fields(ph, PHASE_FIELDS, f"params.phases.{i}")
+        nm = ph.get("name")
+        if not isinstance(nm, str) or not _PHASE_NAME.match(nm) or len(nm) > 64:
+            raise OcpInputError(f"params.phases.{i}.name", "a phase name is required: letters, digits, _ and -, "
+                                                           "not starting with a digit, at most 64 characters")
+        if nm in names:
+            raise OcpInputError(f"params.phases.{i}.name", f"duplicated phase name '{nm}' (also phase "
+                                                           f"{names.index(nm)})")
+        names.append(nm)
+    return names
+
+
+def check_integrands(integrand, names: list[str]) -> None:
+    """``objective.integrand`` as an object names phases that exist."""
+    if isinstance(integrand, dict):
+        for k in integrand:
+            if k not in names:
+                raise OcpInputError(f"params.objective.integrand.{k}", f"unknown phase '{k}'; did you mean "
+                                                                      f"'{closest(str(k), names)}'?")
+
+
+def windows(raw_phases: list) -> tuple[list[PhaseTime], list[tuple[float, float]]]:
+    """Each phase's time window (ordered in time, else a 422) and the guesses of its t0 and tf."""
+    P = "params"
+    times = [_time(object_at(object_at(ph, "").get("time"), f"{P}.phases.{i}.time"), f"{P}.phases.{i}.time", i == 0)
+             for i, ph in enumerate(raw_phases)]
+    check_order(times)
+    gtf = []
+    for i, ph in enumerate(raw_phases):
+        g = object_at(ph.get("guess"), f"{P}.phases.{i}.guess")
+        if g.get("from_job") is not None:
+            raise OcpInputError(f"{P}.phases.{i}.guess.from_job", "a warm start is for the whole problem: "
+                                                                   "give params.guess.from_job")
+        gtf.append(number_at(g.get("tf"), f"{P}.phases.{i}.guess.tf"))
+    return times, _guess_times(times, gtf)
 
 
 def _time(raw: dict, path: str, first: bool) -> PhaseTime:
@@ -142,107 +159,9 @@ def _mid(lo, hi):
     return lo if lo is not None else hi
 
 
-def parse_phases(params: dict, limits: OcpLimits, parse_problem) -> OcpProblem:
-    """Validate a multi-phase ``params`` object (module docstring); :class:`OcpInputError` otherwise.
-    ``parse_problem``: the single-phase parser (:func:`solvers.ocp.spec.parse_problem`, which calls
-    this one: passed in, so neither module imports the other)."""
+def parse_links(params: dict, names: list[str], scope, parse, limits: OcpLimits) -> tuple[Link, ...]:
+    """``params.links``: event constraints between phases, consecutive unless marked ``non_consecutive``."""
     P = "params"
-    for k in SINGLE_ONLY:
-        if params.get(k) not in (None, [], {}):
-            raise OcpInputError(f"{P}.{k}", f"'{k}' belongs to a phase when params.phases is given: "
-                                            f"write it in each phase (params.phases.<i>.{k})")
-    unknown_fields({k: v for k, v in params.items() if k not in SINGLE_ONLY}, TOP_FIELDS, P)
-    accuracy = number_at(params.get("accuracy"), f"{P}.accuracy")
-    if accuracy is not None and not accuracy > 0:
-        raise OcpInputError(f"{P}.accuracy", "must be positive")
-    accuracy_required = params.get("accuracy_required", True)
-    if not isinstance(accuracy_required, bool):
-        raise OcpInputError(f"{P}.accuracy_required", "true or false")
-    raw_phases = list_at(params.get("phases"), f"{P}.phases")
-    if not raw_phases:
-        raise OcpInputError(f"{P}.phases", "at least one phase is required")
-    if len(raw_phases) > MAX_PHASES:
-        raise OcpInputError(f"{P}.phases", f"{len(raw_phases)} phases exceed the limit max_phases={MAX_PHASES}")
-    obj_raw = object_at(params.get("objective"), f"{P}.objective")
-    unknown_fields(obj_raw, ("sense", "expr", "integrand"), f"{P}.objective")
-    sense = obj_raw.get("sense", "minimize")
-    if sense not in ("minimize", "maximize"):
-        raise OcpInputError(f"{P}.objective.sense", f"'{sense}' is neither 'minimize' nor 'maximize'")
-    if obj_raw.get("expr") is None and obj_raw.get("integrand") is None:
-        raise OcpInputError(f"{P}.objective", "give expr (a Mayer term), integrand (a Lagrange term) or both")
-    guess_raw = object_at(params.get("guess"), f"{P}.guess")
-    unknown_fields(guess_raw, ("from_job",), f"{P}.guess")
-    from_job = guess_raw.get("from_job")
-    if from_job is not None and not isinstance(from_job, str):
-        raise OcpInputError(f"{P}.guess.from_job", "a job id string")
-
-    names: list[str] = []
-    for i, ph in enumerate(raw_phases):
-        ph = object_at(ph, f"{P}.phases.{i}")
-        unknown_fields(ph, PHASE_FIELDS, f"{P}.phases.{i}")
-        nm = ph.get("name")
-        if not isinstance(nm, str) or not _PHASE_NAME.match(nm) or len(nm) > 64:
-            raise OcpInputError(f"{P}.phases.{i}.name", "a phase name is required: letters, digits, _ and -, "
-                                                        "not starting with a digit, at most 64 characters")
-        if nm in names:
-            raise OcpInputError(f"{P}.phases.{i}.name", f"duplicated phase name '{nm}' (also phase {names.index(nm)})")
-        names.append(nm)
-    integrand = obj_raw.get("integrand")
-    if isinstance(integrand, dict):
-        for k in integrand:
-            if k not in names:
-                from solvers.ocp.expressions import closest
-                raise OcpInputError(f"{P}.objective.integrand.{k}", f"unknown phase '{k}'; did you mean "
-                                                                      f"'{closest(str(k), names)}'?")
-
-    times = [_time(object_at(object_at(ph, "").get("time"), f"{P}.phases.{i}.time"), f"{P}.phases.{i}.time", i == 0)
-             for i, ph in enumerate(raw_phases)]
-    check_order(times)
-    gtf = []
-    for i, ph in enumerate(raw_phases):
-        g = object_at(ph.get("guess"), f"{P}.phases.{i}.guess")
-        if g.get("from_job") is not None:
-            raise OcpInputError(f"{P}.phases.{i}.guess.from_job", "a warm start is for the whole problem: "
-                                                                   "give params.guess.from_job")
-        gtf.append(number_at(g.get("tf"), f"{P}.phases.{i}.guess.tf"))
-    guesses = _guess_times(times, gtf)
-
-    phases = []
-    top = {k: params[k] for k in ("title", "constants", "tables", "parameters") if k in params}
-    for i, (ph, t, (t0g, tfg)) in enumerate(zip(raw_phases, times, guesses)):
-        body = {**top, **{k: v for k, v in ph.items() if k not in ("name", "time")}}
-        body["time"] = {"initial": t0g}
-        mine = integrand.get(names[i]) if isinstance(integrand, dict) else integrand
-        body["objective"] = {"sense": sense, **({"integrand": mine} if mine is not None else {"expr": 0})}
-        try:
-            prob = parse_problem(body, limits)
-        except OcpInputError as exc:
-            if exc.path.startswith("params.objective.integrand"):
-                where = f".{names[i]}" if isinstance(integrand, dict) else ""
-                exc = OcpInputError(f"params.objective.integrand{where}", f"in phase '{names[i]}': {exc.reason}")
-            raise _relocate(exc, i) from None
-        obj = replace(prob.objective, expr=None, expr_text="")
-        ts = TimeSpec(initial=t0g, final=t.final, final_lower=t.final_lower, final_upper=t.final_upper,
-                      final_guess=tfg)
-        prob = replace(prob, objective=obj, phase=replace(prob.phase, time=ts))
-        phases.append(NamedPhase(name=names[i], time=t, problem=prob))
-
-    first = phases[0].problem
-    top_names = {n: "constant" for n, _ in first.constants}
-    top_names.update({q.name: "parameter" for q in first.parameters})
-    declared = {p.name: {**{s.name: "state" for s in p.problem.states},
-                         **{c.name: "control" for c in p.problem.controls}} for p in phases}
-    tables = {tb.name: len(tb.axes) for tb in first.tables}
-
-    def parse(text, path, scope):
-        return parse_expression(text, path=path, scope=scope, max_chars=limits.max_expression_chars,
-                                max_nodes=limits.max_expression_nodes)
-
-    ev_obj = Scope(top_names, tables, boundary=True, where="the objective's expr", phases=declared)
-    expr = None if obj_raw.get("expr") is None else parse(obj_raw["expr"], f"{P}.objective.expr", ev_obj)
-    objective = Objective(sense=sense, expr=expr, integrand=None, expr_text=str(obj_raw.get("expr") or ""),
-                          integrand_text=str(integrand or ""))
-
     links_raw = list_at(params.get("links"), f"{P}.links")
     flags = []
     for i, lk in enumerate(links_raw):
@@ -252,8 +171,7 @@ def parse_phases(params: dict, limits: OcpLimits, parse_problem) -> OcpProblem:
             raise OcpInputError(f"{P}.links.{i}.non_consecutive", "true or false")
         flags.append(nc)
     plain = [{k: v for k, v in object_at(lk, "").items() if k != "non_consecutive"} for lk in links_raw]
-    parsed = constraints_at(plain, f"{P}.links", Scope(top_names, tables, boundary=True, where="links",
-                                                       phases=declared), parse, limits)
+    parsed = constraints_at(plain, f"{P}.links", scope, parse, limits)
     links = []
     for i, (c, nc) in enumerate(zip(parsed, flags)):
         used = {n.phase for n in walk(c.expr) if isinstance(n, (Boundary, EventTime)) and n.phase}
@@ -264,34 +182,22 @@ def parse_phases(params: dict, limits: OcpLimits, parse_problem) -> OcpProblem:
                                                        "on this link if that is meant")
         links.append(Link(expr=c.expr, text=c.text, lower=c.lower, upper=c.upper, name=c.name or f"link_{i}",
                           phases=tuple(names[j] for j in idx), non_consecutive=nc))
+    return tuple(links)
 
+
+def linkage(phases: list[NamedPhase], links) -> tuple[tuple[int, ...], tuple[tuple[int, str], ...]]:
+    """The default continuities no link replaces: ``(time_links, state_links)`` (module docstring)."""
     time_links, state_links = [], []
+    events = [_events(lk.expr) for lk in links]
     for k in range(len(phases) - 1):
-        a, b = names[k], names[k + 1]
-        events = [_events(lk.expr) for lk in links]
+        a, b = phases[k].name, phases[k + 1].name
         if not any(("tf", a) in ev and ("t0", b) in ev for ev in events):
             time_links.append(k)
         shared = [s for s in phases[k].problem.state_names if s in phases[k + 1].problem.state_names]
         for x in shared:
             if not any(("final", x, a) in ev and ("initial", x, b) in ev for ev in events):
                 state_links.append((k, x))
-
-    plots = []
-    reportable = {"t"}.union(*[set(p.problem.state_names) | set(p.problem.control_names)
-                               | {n for n, _ in p.problem.expressions} for p in phases])
-    for i, pair in enumerate(list_at(params.get("plots"), f"{P}.plots")):
-        pair = list_at(pair, f"{P}.plots.{i}")
-        if len(pair) != 2:
-            raise OcpInputError(f"{P}.plots.{i}", "a plot is a pair of names [x, y]")
-        for j, nm in enumerate(pair):
-            if nm not in reportable:
-                raise OcpInputError(f"{P}.plots.{i}.{j}", f"'{nm}' is not a state, control, expression of a phase or t")
-        plots.append((pair[0], pair[1]))
-    return OcpProblem(title=first.title, constants=first.constants, tables=first.tables,
-                             parameters=first.parameters, phases=tuple(phases), objective=objective,
-                             links=tuple(links), time_links=tuple(time_links), state_links=tuple(state_links),
-                             from_job=from_job, plots=tuple(plots), accuracy=accuracy,
-                             accuracy_required=accuracy_required)
+    return tuple(time_links), tuple(state_links)
 
 
 def _events(expr) -> set[tuple]:
@@ -302,6 +208,3 @@ def _events(expr) -> set[tuple]:
         elif isinstance(n, EventTime):
             out.add((n.which, n.phase))
     return out
-
-
-__all__ = ["check_order", "parse_phases"]
