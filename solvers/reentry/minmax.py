@@ -40,11 +40,11 @@ from solvers.transcription.multiple_shooting import (
 S_MAX = 100.0   # the epigraph variable's upper bound (peak / limit)
 
 
-def least_peak_ratio(sp: ShootingProblem, *, p, bounds, tf_bounds, guess, should_stop=None,
-                     peak_guess: float = 2.0, expected_iterations: int = 60):
-    """``(least peak of q / q_max at the step points or None, IPOPT status)`` for the reentry shooting
-    problem ``sp`` (its ``heat_rate`` path constraint is ``q / q_max - 1``); ``bounds`` and ``guess``
-    as :meth:`Transcription.solve` takes them for ``sp``."""
+def minmax_problem(sp: ShootingProblem) -> ShootingProblem:
+    """The epigraph form of ``sp``'s least peak heating: an extra constant state ``s`` with
+    ``q / q_max <= s`` at every RK4 step point, ``s_f`` minimized (``sp``'s ``heat_rate`` path
+    constraint is ``q / q_max - 1``).  Block derivatives as the reentry problem's own (equal to
+    CasADi's AD, tests/unit/test_transcription_blocks.py), for their speed."""
     heat = next(c for c in sp.path if c.name == "heat_rate")
     nx = sp.nx
 
@@ -52,9 +52,18 @@ def least_peak_ratio(sp: ShootingProblem, *, p, bounds, tf_bounds, guess, should
         return ca.vertcat(sp.dynamics(x[:nx], u, pp), 0)
 
     path = (PathConstraint("peak", lambda x, u, pp: heat.fn(x[:nx], u, pp) + 1.0 - x[nx], where="substeps"),)
-    mp = dataclasses.replace(sp, key=("minmax", *sp.key), nx=nx + 1, dynamics=dynamics,
-                             x_scale=(*sp.x_scale, 1.0), mayer=lambda xf, T, pp: xf[nx], lagrange=None,
-                             objective_scale=1.0, path=path, block_derivatives=False)
+    return dataclasses.replace(sp, key=("minmax", *sp.key), nx=nx + 1, dynamics=dynamics,
+                               x_scale=(*sp.x_scale, 1.0), mayer=lambda xf, T, pp: xf[nx], lagrange=None,
+                               objective_scale=1.0, path=path, block_derivatives=True)
+
+
+def least_peak_ratio(sp: ShootingProblem, *, p, bounds, tf_bounds, guess, should_stop=None,
+                     peak_guess: float = 2.0, expected_iterations: int = 60):
+    """``(least peak of q / q_max at the step points or None, IPOPT status, result)`` for the reentry
+    shooting problem ``sp`` (:func:`minmax_problem`); ``bounds`` and ``guess`` as
+    :meth:`Transcription.solve` takes them for ``sp``."""
+    nx = sp.nx
+    mp = minmax_problem(sp)
     x_lb, x_ub, u_lb, u_ub = bounds
     m1 = x_lb.shape[1]
     x_lb = np.vstack([x_lb, np.zeros((1, m1))])
@@ -92,7 +101,7 @@ COARSE_SUBSTEPS = 4      # RK4 steps per interval: 80, then 160 step points samp
 
 def coarse_least_peak(problem, guess, *, should_stop=None) -> dict | None:
     """The least peak heating on two coarse grids before the limited NLP (module docstring):
-    ``{"grids": [...], "least_peak_ratio", "error_estimate", "proves_infeasible", ...}``, or None when
+    ``{"grids": [...], "least_peak_ratio", "error_estimate_w_m2", "proves_infeasible", ...}``, or None when
     a min-max solve does not converge (then nothing is concluded).  ``guess``: the job's initial
     guess (an :class:`~solvers.reentry.guess.InitialGuess`).  Stops after the first grid when its
     least peak is under the limit: the second grid could only confirm that nothing is proved."""

@@ -140,3 +140,31 @@ def test_reentry_structures_use_blocks_equal_to_casadi_ad(case):
             a, b = np.triu(a), np.triu(b)       # IPOPT reads the upper triangle
         assert np.all(np.isfinite(b))
         np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-12 * np.abs(b).max())
+
+
+def test_the_least_peak_minmax_problem_uses_blocks_equal_to_casadi_ad():
+    # The epigraph form (solvers.reentry.minmax) adds a constant state and a path constraint on it;
+    # its blocks must still be the AD's derivatives (issue 35 item 8 solves it before every
+    # heat-limited job).
+    from solvers import reentry as rs
+    from solvers.reentry.guess import on_grid, simulate_constant_controls
+    from solvers.reentry.minmax import minmax_problem
+
+    problem = rs.ReentryProblem(intervals=6, substeps=4, max_heat_rate_w_m2=5e5)
+    mp = minmax_problem(rs.shooting_problem(problem))
+    assert mp.block_derivatives and mp.nx == 7
+    ours, ref = Transcription(mp), Transcription(dataclasses.replace(mp, block_derivatives=False))
+    tf, x, u = on_grid(simulate_constant_controls(problem, alpha_rad=0.3, bank_rad=-1.0), 6, problem.control)
+    rng = np.random.default_rng(7)
+    z = ref.pack(tf, np.vstack([x, np.full((1, 7), 1.2)]), u)
+    z = z * (1.0 + 1e-3 * rng.standard_normal(z.size))
+    p, lam_g = rs.param_vector(problem), rng.standard_normal(ref.ng)
+    for name, args in (("nlp_jac_g", (z, p)), ("nlp_hess_l", (z, p, 0.7, lam_g))):
+        a = ours.solver.solver.get_function(name)(*args)
+        b = ref.solver.solver.get_function(name)(*args)
+        a, b = (a[-1], b[-1]) if isinstance(a, tuple) else (a, b)
+        a, b = np.array(ca.DM(a)), np.array(ca.DM(b))
+        if name == "nlp_hess_l":
+            a, b = np.triu(a), np.triu(b)
+        assert np.all(np.isfinite(b))
+        np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-12 * np.abs(b).max())
