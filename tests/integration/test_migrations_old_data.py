@@ -34,8 +34,7 @@ from sqlalchemy import (
 
 from app.runtime.db import get_database
 from app.runtime.migrate import alembic_config, upgrade
-from app.runtime.models import JobResult
-from app.service import storage
+from app.service import jobs
 from tests.integration.conftest import PG_ADMIN_URL
 
 pytestmark = pytest.mark.integration
@@ -132,9 +131,8 @@ def _upgrade_and_find_every_row(url: str, revision: str) -> None:
             assert not changed, f"{table} {key} changed upgrading from {revision}: {changed}"
     db = get_database(url)
     try:
-        with db.read() as s:
-            for job_id, row in written["job_results"].items():
-                assert storage.read_result(s.get(JobResult, job_id)) == row["data"]
+        for job_id, row in written["job_results"].items():
+            assert jobs.get_result(db, job_id) == row["data"]   # as the service reads it
     finally:
         db.dispose()
 
