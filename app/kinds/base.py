@@ -1,12 +1,13 @@
 """The contract between the job service and one job kind.
 
-A kind module (``app/kinds/<kind>.py``) is the API edge of one solver: it
+A kind package (``app/kinds/<kind>/``) is the API edge of one solver: it
 declares the pydantic parameter model (SI units, angles in degrees, every field
 defaulted and documented), the named presets, and ``run(params, ctx)``, which
 converts parameters to the solver's SI/radian dataclass, calls the solver with
 the context's progress and stop callbacks, and turns the solution into the
-JSON result of ``shared/specs/api.md``.  Nothing here knows about HTTP,
-Celery or SQL: the worker supplies a :class:`JobContext`.
+JSON result of ``shared/specs/api.md``; its :class:`KindSpec` says everything
+else the service asks of the kind (cost, memory, tables, OEM, ...).  Nothing
+here knows about HTTP, Celery or SQL: the worker supplies a :class:`JobContext`.
 """
 from __future__ import annotations
 
