@@ -19,8 +19,9 @@ Conventions:
 """
 from __future__ import annotations
 
+from typing import Any
+
 from pydantic import BaseModel, ConfigDict, Field
-from pydantic.fields import FieldInfo
 
 
 class ResultModel(BaseModel):
@@ -33,6 +34,7 @@ Num = float | None          # a number; null when not finite
 Series = list[float | None]  # a time series or curve; null where not finite
 
 
-def series(what: str, unit: str) -> FieldInfo:
-    """A required series field described with its unit."""
+def series(what: str, unit: str) -> Any:
+    """A required series field described with its unit (a FieldInfo, typed Any as pydantic's Field is:
+    it stands as the default of a field of another type)."""
     return Field(description=f"{what} ({unit}), one value per time point; null where not finite")

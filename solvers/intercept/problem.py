@@ -15,7 +15,7 @@ from solvers.common import SolveStatus
 from solvers.intercept.branches import Branch
 from solvers.intercept.porkchop import Porkchop, PorkchopSettings
 from solvers.intercept.scenario import InterceptScenario
-from solvers.intercept.thrust.problem import MeshOptions
+from solvers.intercept.thrust.problem import FiniteThrustSolution, MeshOptions
 
 
 @dataclass(frozen=True)
@@ -80,4 +80,4 @@ class InterceptSolution:
 
     status: SolveStatus
     impulsive: ImpulsiveSolution | None = None
-    finite_thrust: object | None = None
+    finite_thrust: FiniteThrustSolution | None = None

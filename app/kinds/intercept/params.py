@@ -16,6 +16,9 @@ from solvers.constants import G0_MPS2
 MAX_SCAN_POINTS = 2_000_000
 MAX_PORKCHOP_POINTS = 250_000
 
+_ALL_METHODS: list[Literal["impulsive", "finite_thrust"]] = ["impulsive", "finite_thrust"]
+
+
 class InterceptInterceptor(StrictModel):
     """The interceptor: vehicle data and its orbit at t0 (classical elements)."""
 
@@ -117,7 +120,7 @@ class InterceptParams(StrictModel):
     """Parameters of an intercept job (SI units, angles in degrees, ECI frame of the epoch t0 = 0)."""
 
     methods: list[Literal["impulsive", "finite_thrust"]] = Field(
-        default_factory=lambda: ["impulsive", "finite_thrust"],
+        default_factory=lambda: list(_ALL_METHODS),
         description="Methods to run: impulsive (Lambert scan) and/or finite_thrust (pseudospectral)",
         examples=[["impulsive"]])
     interceptor: InterceptInterceptor = Field(default_factory=InterceptInterceptor,

@@ -5,6 +5,7 @@ the launch angles are printed here in degrees and a test keeps them equal to the
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Literal
 
 from pydantic import Field, field_validator, model_validator
@@ -26,7 +27,7 @@ PAPER_LATITUDE_DEG = 28.3214
 PAPER_AZIMUTH_DEG = 135.7033
 
 
-def _vec3(description: str, default: list[float]):
+def _vec3(description: str, default: Sequence[float]):
     return Field(default_factory=lambda: list(default), min_length=3, max_length=3,
                  description=description, examples=[list(default)])
 

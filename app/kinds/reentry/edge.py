@@ -9,6 +9,7 @@ modules are imported inside the functions so the API process starts without CasA
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -25,6 +26,11 @@ def json_list(values) -> list:
     return [json_float(v) for v in np.asarray(values, float).ravel()]
 
 
+def _radians_pair(deg) -> tuple[float, float]:
+    lo, hi = deg
+    return math.radians(lo), math.radians(hi)
+
+
 def to_problem(params: ReentryParams):
     """The :class:`solvers.reentry.ReentryProblem` of validated parameters (degrees to radians)."""
     from solvers import reentry as rs
@@ -38,8 +44,8 @@ def to_problem(params: ReentryParams):
         initial_state=tuple(c.from_api(getattr(s0, c.api_name)) for c in STATES),
         terminal=rs.Terminal(**terminal),
         objective=params.objective,
-        alpha_bounds_rad=tuple(map(math.radians, params.bounds.alpha_deg)),
-        bank_bounds_rad=tuple(map(math.radians, params.bounds.bank_deg)),
+        alpha_bounds_rad=_radians_pair(params.bounds.alpha_deg),
+        bank_bounds_rad=_radians_pair(params.bounds.bank_deg),
         max_heat_rate_w_m2=params.path.max_heat_rate_w_m2,
         max_dynamic_pressure_pa=params.path.max_dynamic_pressure_pa,
         max_load_factor=params.path.max_load_factor,
@@ -64,16 +70,19 @@ def vehicle_of(params: ReentryParams):
 
     v = params.vehicle
     base = vehicles.vehicle_preset(v.preset).vehicle
-    over = {k: val for k, val in {"mass_kg": v.mass_kg, "area_m2": v.area_m2}.items() if val is not None}
+    over: dict[str, Any] = {k: val for k, val in {"mass_kg": v.mass_kg, "area_m2": v.area_m2}.items()
+                            if val is not None}
     if v.cl_coeffs is not None or v.cd_coeffs is not None:
         # polynomials replace a preset's table (then both are given: ReentryVehicle checks it)
         over.update(aero_table=None, cl_coeffs=tuple(v.cl_coeffs or base.cl_coeffs),
                     cd_coeffs=tuple(v.cd_coeffs or base.cd_coeffs))
     if v.aero_table is not None:
         over["aero_table"] = v.aero_table.to_solver()
-    if v.heating is not None:
-        over["heating"] = (None if v.heating.model == "betts"
-                           else SuttonGraves(nose_radius_m=v.heating.nose_radius_m, k=v.heating.k))
+    if v.heating is not None and v.heating.model == "betts":
+        over["heating"] = None
+    elif v.heating is not None:
+        assert v.heating.nose_radius_m is not None  # ReentryHeating requires it for sutton_graves
+        over["heating"] = SuttonGraves(nose_radius_m=v.heating.nose_radius_m, k=v.heating.k)
     if isinstance(params.planet, str):
         over["planet"] = vehicles.PLANETS[params.planet]
     elif params.planet is not None:

@@ -11,7 +11,8 @@ OBJECTIVE_WORDS = {"max_crossrange": "crossrange (final latitude)", "max_downran
 
 
 def objective_headline(objective: dict) -> Headline:
-    name = OBJECTIVE_WORDS.get(objective.get("name"), objective.get("name") or "objective")
+    key = objective.get("name") or ""
+    name = OBJECTIVE_WORDS.get(key, key or "objective")
     return number(name, objective.get("value"), objective.get("unit") or "", digits=5)
 
 

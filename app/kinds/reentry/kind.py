@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import functools
 import math
+from typing import Any
 
 from app.kinds.base import (JobContext, KindSpec, MemoryModel, Preset, RunOutcome, outcome_from_status,
                             warm_start_from_job)
@@ -25,7 +26,7 @@ WARM_START_FIELD = "initial_guess.from_job"
 _BETTS_NOTE = ("Betts shuttle (Practical Methods for Optimal Control, sec. 6.3): entry at 260000 ft, "
                "25600 ft/s, -1 deg; final 80000 ft, 2500 ft/s, -5 deg; alpha in [-90, 90], "
                "bank in [-90, 1] deg; non-rotating spherical Earth, exponential atmosphere.")
-_PAPER000 = {"terminal": {"altitude_m": PAPER000_TERMINAL_ALTITUDE_M, "speed_mps": None, "flight_path_deg": None},
+_PAPER000: dict[str, Any] = {"terminal": {"altitude_m": PAPER000_TERMINAL_ALTITUDE_M, "speed_mps": None, "flight_path_deg": None},
              "bounds": {"alpha_deg": [math.degrees(sh.BETTS_ALPHA_BOUNDS_RAD[0]),
                                       round(math.degrees(sh.PAPER000_ALPHA_MAX_RAD), 9)]}}
 

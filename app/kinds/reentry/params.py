@@ -180,6 +180,7 @@ class ReentryControlBounds(StrictModel):
     @classmethod
     def _within(cls, v, info: ValidationInfo):
         name = info.field_name
+        assert name is not None  # a field validator's
         _interval(v, name)
         limit = _CONTROL_LIMITS_DEG[name]
         if v[0] < -limit or v[1] > limit:

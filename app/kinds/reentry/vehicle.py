@@ -10,7 +10,7 @@ naming the rule.  Units: SI, angles in degrees.
 """
 from __future__ import annotations
 
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 from pydantic import Field, model_validator
 
@@ -18,8 +18,12 @@ from app.kinds.base import StrictModel
 from solvers.models import aerodynamics, atmosphere, planet, vehicles
 from solvers.models.shuttle import Vehicle
 
-VehicleName = Literal[tuple(vehicles.VEHICLES)]          # type: ignore[valid-type]
-PlanetName = Literal[tuple(vehicles.PLANETS)]            # type: ignore[valid-type]
+if TYPE_CHECKING:  # the names are data (solvers.models.vehicles), which a type checker does not run
+    VehicleName = str
+    PlanetName = str
+else:
+    VehicleName = Literal[tuple(vehicles.VEHICLES)]
+    PlanetName = Literal[tuple(vehicles.PLANETS)]
 AtmosphereName = Literal["exponential", "us1976", "mars"]
 _ATMOSPHERE_NAMES = {"exponential": "betts", "us1976": "us1976", "mars": "mars"}
 _MAX_BREAKPOINTS = 200
@@ -40,7 +44,7 @@ class ReentryAeroTable(StrictModel):
         return self
 
     def to_solver(self) -> aerodynamics.AeroTable:
-        return aerodynamics.AeroTable(alpha_deg=self.alpha_deg, mach=self.mach, cl=self.cl, cd=self.cd)
+        return aerodynamics.AeroTable(alpha_deg=tuple(self.alpha_deg), mach=tuple(self.mach), cl=self.cl, cd=self.cd)
 
     @classmethod
     def from_solver(cls, t: aerodynamics.AeroTable) -> ReentryAeroTable:

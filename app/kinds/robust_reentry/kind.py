@@ -11,6 +11,7 @@ blocks shared with ``reentry`` come from :mod:`app.kinds.reentry.edge`.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -122,11 +123,13 @@ def _mc_block(summary: dict, prediction, objective_k: float) -> dict:
     out["terminal"] = terminal
     lat = terminal["latitude_deg"]
     n = int(summary["samples"]) - int(summary["failed_samples"])
-    known = lat["mean"] is not None and lat["std"] is not None and n >= 2
-    out["objective"] = {"name": "latitude_deg", "mean": lat["mean"], "std": lat["std"],
-                        "mean_minus_k_std": json_float(lat["mean"] - objective_k * lat["std"]) if known else None,
-                        "standard_error": json_float(objective_standard_error(lat["std"], objective_k, n))
-                        if known else None,
+    mean, std = lat["mean"], lat["std"]
+    mean_minus_k_std = standard_error = None
+    if mean is not None and std is not None and n >= 2:
+        mean_minus_k_std = json_float(mean - objective_k * std)
+        standard_error = json_float(objective_standard_error(std, objective_k, n))
+    out["objective"] = {"name": "latitude_deg", "mean": mean, "std": std,
+                        "mean_minus_k_std": mean_minus_k_std, "standard_error": standard_error,
                         "cadet_mean": lat["cadet_mean"], "cadet_std": lat["cadet_std"]}
     by_name = {c.name: c for c in STATES}
     out["terminal_within_required"] = {
@@ -256,12 +259,13 @@ def run(params: RobustReentryParams, ctx: JobContext) -> RunOutcome:
         designs.append((sol, summary, p2))
         if record["agrees"] or r == settings.max_rounds - 1:
             break
-        correction = rc.correct(record, correction, samples=mcp.samples)
-        if correction is None:
+        corrected_by = rc.correct(record, correction, samples=mcp.samples)
+        if corrected_by is None:
             resolve_failure = (f"no correction after round {r + 1}: a terminal sigma of the Monte Carlo is more "
                                f"than {rc.MAX_SIGMA_RATIO:g} times CADET's, outside the first-order regime "
                                "(lower k or the uncertainty)")
             break
+        correction = corrected_by
         corrected = dataclasses.replace(solving, robust=dataclasses.replace(
             problem.robust, k_constraint=correction.k_constraint,
             sigma_limits={**problem.robust.sigma_limits, **correction.sigma_limits}))
@@ -278,7 +282,7 @@ def run(params: RobustReentryParams, ctx: JobContext) -> RunOutcome:
         sol = rr.verify(problem, sol)
 
     result = _design_result(sol, kj)
-    mc_out = {"samples": mcp.samples, "seed": mcp.seed, "chunk_size": mcp.chunk_size,
+    mc_out: dict[str, Any] = {"samples": mcp.samples, "seed": mcp.seed, "chunk_size": mcp.chunk_size,
               "substeps_per_interval": mcp.substeps, "executed": "workers",
               "deterministic": _mc_block(do_summary, do_p2, kj), "robust": _mc_block(summary, p2, kj)}
     result["monte_carlo"] = mc_out
