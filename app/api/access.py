@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
-from typing import Annotated
+from typing import Annotated, Protocol
 
 from fastapi import Depends, HTTPException, Request
 from fastapi.concurrency import run_in_threadpool
@@ -24,7 +24,13 @@ from app.api import auth, key_attempts
 from app.api.observability import AUTH_FAILURES
 from app.service import jobs
 from app.runtime.db import Database
-from app.runtime.models import Job
+
+
+class Owned(Protocol):
+    """A job, a job's row or a study: what has an owner."""
+
+    @property
+    def owner(self) -> str | None: ...
 
 
 @dataclass(frozen=True)
@@ -34,7 +40,7 @@ class Principal:
     owner: str | None
     admin: bool = False
 
-    def may_see(self, job: Job | jobs.JobRow) -> bool:
+    def may_see(self, job: Owned) -> bool:
         return self.admin or (job.owner is not None and job.owner == self.owner)
 
     @property

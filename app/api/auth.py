@@ -99,5 +99,7 @@ def authenticate(db: Database, key: str) -> KeyInfo | None:
         last = last.replace(tzinfo=timezone.utc)
     if last is None or utcnow() - last > LAST_USED_RESOLUTION:
         with db.write() as s:
-            s.get(ApiKey, row.id).last_used_at = utcnow()
+            api_key = s.get(ApiKey, row.id)
+            if api_key is not None:  # deleted meanwhile: nothing to record
+                api_key.last_used_at = utcnow()
     return info

@@ -52,7 +52,9 @@ def _field(loc) -> str:
     return ".".join(parts) or "body"
 
 
-async def validation_error_handler(request: Request, exc: RequestValidationError) -> JSONResponse:
+async def validation_error_handler(request: Request, exc: Exception) -> JSONResponse:
+    # typed as Starlette's handlers are (any exception); registered for RequestValidationError only
+    assert isinstance(exc, RequestValidationError)
     errors = list(exc.errors())
     detail = []
     for err in errors[:MAX_ERRORS]:

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from contextlib import asynccontextmanager
+from typing import Any
 
 import anyio.to_thread
 from fastapi import Depends, FastAPI
@@ -75,9 +76,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.settings = settings
     app.state.db = get_database(settings.database_url, settings)
     app.state.celery = create_publisher(settings)
-    bad_body = {400: {"description": "The body is not valid JSON (e.g. not UTF-8)"},
+    bad_body: dict[int | str, dict[str, Any]] = {400: {"description": "The body is not valid JSON (e.g. not UTF-8)"},
                 413: {"description": "The body is larger than TRAJLAB_MAX_BODY_BYTES (refused before parsing)"}}
-    needs_key = {401: {"description": "No, unknown or revoked API key (TRAJLAB_AUTH=required)"},
+    needs_key: dict[int | str, dict[str, Any]] = {401: {"description": "No, unknown or revoked API key (TRAJLAB_AUTH=required)"},
                  429: {"description": "Too many failed API-key attempts from this address (TRAJLAB_AUTH_MAX_FAILURES); "
                                        "`Retry-After` says when to try again"}}
     app.include_router(jobs.router, responses=bad_body | needs_key)

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import copy
+from typing import Any
 
 from fastapi.exceptions import RequestValidationError
 from pydantic import ValidationError
@@ -31,8 +32,8 @@ def resolve_params(spec: KindSpec, preset_params: dict | None, overrides: dict |
         model = spec.params_model.model_validate(merged)
     except ValidationError as exc:
         errors = []
-        for err in exc.errors(include_url=False):
-            err = dict(err)
+        for details in exc.errors(include_url=False):
+            err: dict[str, Any] = dict(details)
             err["loc"] = ("body", "params", *err.get("loc", ()))
             err.pop("ctx", None)
             errors.append(err)

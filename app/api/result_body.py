@@ -40,7 +40,7 @@ def _union():
     models = tuple(result_models().values())
     if not models:
         return dict
-    return models[0] if len(models) == 1 else Union[models]  # type: ignore[return-value]
+    return models[0] if len(models) == 1 else Union[models]
 
 
 JobResult = _union()

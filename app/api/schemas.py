@@ -3,7 +3,7 @@ submission body as a discriminated union on ``kind`` built from the registry."""
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Annotated, Any, Literal, Optional, Union
+from typing import TYPE_CHECKING, Annotated, Any, Literal, Optional, Union
 
 from pydantic import BaseModel, Field, create_model
 
@@ -53,27 +53,35 @@ class PresetOut(BaseModel):
 
 def _submission_model(spec: KindSpec) -> type[BaseModel]:
     names = tuple(p.name for p in spec.presets)
-    preset_type = Optional[Literal[names]] if names else Optional[str]  # type: ignore[valid-type]
+    preset_type = Optional[Literal[names]] if names else Optional[str]
     title = "".join(part.capitalize() for part in spec.kind.split("_"))
-    return create_model(
-        f"{title}Submission",
-        __base__=StrictModel,
-        __doc__=spec.summary or f"Submit a {spec.kind} job.",
-        kind=(Literal[spec.kind], Field(description="Job kind")),  # type: ignore[valid-type]
+    # field types built at run time (a Literal of this kind's names): Any to the type checker
+    fields: dict[str, Any] = dict(
+        kind=(Literal[spec.kind], Field(description="Job kind")),
         preset=(preset_type, Field(default=None, description="A named case (GET /v1/presets); `params` override it")),
         params=(Optional[spec.params_model], Field(
             default=None, description="Parameters; deep-merged onto the preset's (or the defaults), "
                                       "only the fields you give override")),
         label=(Optional[str], Field(default=None, max_length=200, description="Free text to find the job again")),
     )
+    return create_model(f"{title}Submission", __base__=StrictModel,
+                        __doc__=spec.summary or f"Submit a {spec.kind} job.", **fields)
 
 
 SUBMISSION_MODELS: dict[str, type[BaseModel]] = {kind: _submission_model(spec) for kind, spec in KINDS.items()}
 
-if len(SUBMISSION_MODELS) > 1:
-    JobSubmission = Annotated[Union[tuple(SUBMISSION_MODELS.values())], Field(discriminator="kind")]  # type: ignore[misc]
+if TYPE_CHECKING:
+    class JobSubmission(StrictModel):
+        """To the type checker: the fields every kind's submission model has (built at run time below)."""
+
+        kind: str
+        preset: str | None
+        params: BaseModel | None
+        label: str | None
+elif len(SUBMISSION_MODELS) > 1:
+    JobSubmission = Annotated[Union[tuple(SUBMISSION_MODELS.values())], Field(discriminator="kind")]
 else:
-    JobSubmission = next(iter(SUBMISSION_MODELS.values()))  # type: ignore[misc]
+    JobSubmission = next(iter(SUBMISSION_MODELS.values()))
 
 
 class ErrorBody(BaseModel):

@@ -60,7 +60,9 @@ def _misfit(db: Database, job_id: str, *, kind: str, params: dict) -> str | None
     from app.kinds import KINDS
 
     check = getattr(KINDS.get(kind), "warm_start_misfit", None)
-    stored = jobs.get_result(db, job_id) if check is not None else None
+    if check is None:
+        return None
+    stored = jobs.get_result(db, job_id)
     return check(stored, params) if isinstance(stored, dict) else None
 
 

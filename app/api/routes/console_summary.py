@@ -5,7 +5,7 @@ the public ``/v1`` routes do; none is part of the API document (the console's ow
 """
 from __future__ import annotations
 
-from typing import Annotated
+from typing import Annotated, Any
 
 from fastapi import APIRouter, HTTPException, Query
 from fastapi.concurrency import run_in_threadpool
@@ -25,7 +25,7 @@ MAX_LIST = 100  # the job list shows at most this many rows at once
 def _summary(db, job_id: str, principal) -> dict:
     job = visible_job(db, job_id, principal)
     result = jobs.get_result(db, job_id) if job.status in ("succeeded", "failed") else None
-    out = {"status": job.status, "preset": job.preset, "headlines": [], "failure": None, "last_iterate_plots": []}
+    out: dict[str, Any] = {"status": job.status, "preset": job.preset, "headlines": [], "failure": None, "last_iterate_plots": []}
     if job.status == "succeeded":
         out["headlines"] = headlines(job.kind, result, job.params)
     elif job.status == "failed":
@@ -85,8 +85,8 @@ async def last_iterate_plot(job_id: str, name: str, db: DatabaseDep, principal: 
     if job.status != "failed":
         raise HTTPException(status_code=409, detail=f"job {job_id} is {job.status}; last-iterate plots are for "
                                                      "failed jobs (a succeeded one has /v1/jobs/{id}/plots)")
-    result = await run_in_threadpool(jobs.get_result, db, job_id)
-    plot = next((p for p in _plots(job.kind, result or {}) if p.name == name), None)
+    result = await run_in_threadpool(jobs.get_result, db, job_id) or {}
+    plot = next((p for p in _plots(job.kind, result) if p.name == name), None)
     if plot is None:
         raise HTTPException(status_code=404, detail=f"no last-iterate plot {name} for job {job_id}")
     title = f"{job_id[:8]}, last iterate"

@@ -96,7 +96,7 @@ def submit_job(
             # recovery loop publishes it once the broker is back.  The broker's address stays in the log.
             log.warning("job %s: broker unreachable, stored unpublished", job.id, exc_info=True)
             jobs.mark_unpublished(db, job.id)
-            job = jobs.get_job(db, job.id)
+            job = jobs.get_job(db, job.id) or job  # (never None: the row was just written)
     return _job_response(jobs.job_json(job), status_code=202, headers={"Location": f"/v1/jobs/{job.id}"})
 
 
@@ -141,6 +141,7 @@ def get_result(job_id: str, db: DatabaseDep, principal: PrincipalDep,
     headers = {"ETag": etag, "Cache-Control": "private, max-age=86400"}
     if if_none_match and etag in [t.strip() for t in if_none_match.split(",")]:
         return Response(status_code=304, headers=headers)
+    assert result is not None  # the worker stores a succeeded job's result with its status (jobs.finish)
     # validated by the kind's model and written by pydantic-core (app.api.result_body.result_json)
     return Response(result_json(job.kind, compact(job.kind, result, set(include))), media_type="application/json",
                     headers=headers)

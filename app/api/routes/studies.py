@@ -222,7 +222,7 @@ def get_study_result(study_id: str, db: DatabaseDep, principal: PrincipalDep,
 def cancel_study(study_id: str, db: DatabaseDep, principal: PrincipalDep):
     _visible(db, study_id, principal)
     studies.request_cancel(db, study_id)
-    return studies.summary(db, studies.get_study(db, study_id))
+    return studies.summary(db, _visible(db, study_id, principal))
 
 
 @router.delete("/{study_id}", status_code=204, response_class=Response,
