@@ -42,7 +42,7 @@ def check_warm_start(stored: dict, problem, *, job_id: str, field: str = WARM_ST
     if why is not None:
         raise JobFailure("invalid_input", f"{field}: job {job_id} is {why}" if why.startswith("a ")
                          else f"{field}: job {job_id}: {why}")
-    blocks = stored.get("phases") if names else [stored]
+    blocks = (stored.get("phases") or []) if names else [stored]  # (_fit saw the phases)
     for p in blocks:
         tr = p.get("trajectory") if isinstance(p, dict) else None
         if not (isinstance(tr, dict) and hasattr(tr.get("t"), "__len__") and len(tr["t"]) >= 2):
