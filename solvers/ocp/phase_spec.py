@@ -24,6 +24,7 @@ from solvers.ocp.problem import (
     TimeSpec,
     Transcription,
 )
+from solvers.ocp.shape import CONTROL_NUMBERS, FIELDS, PARAMETER_NUMBERS, STATE_NUMBERS
 from solvers.ocp.readers import (
     Names,
     OcpLimits,
@@ -125,9 +126,9 @@ def parse_phase(raw: dict, *, path: str, shared: Shared, time: TimeSpec, objecti
 
 # field -> (class, kind of name, its number fields, whether it has a unit, its limit)
 DECLARATIONS = {
-    "states": (StateDecl, "state", ("initial", "final", "lower", "upper", "scale"), True, "max_states"),
-    "controls": (ControlDecl, "control", ("lower", "upper", "scale"), True, "max_controls"),
-    "parameters": (ParameterDecl, "parameter", ("lower", "upper", "guess"), False, "max_parameters"),
+    "states": (StateDecl, "state", STATE_NUMBERS, True, "max_states"),
+    "controls": (ControlDecl, "control", CONTROL_NUMBERS, True, "max_controls"),
+    "parameters": (ParameterDecl, "parameter", PARAMETER_NUMBERS, False, "max_parameters"),
 }
 
 
@@ -178,7 +179,7 @@ def declaration_checks(decl, path: str) -> None:
 
 
 def time_spec(t: dict, path: str) -> TimeSpec:
-    unknown_fields(t, ("initial", "final", "final_lower", "final_upper", "final_guess"), path)
+    unknown_fields(t, FIELDS["time"], path)
     t0 = number_at(t.get("initial", 0.0), f"{path}.initial", optional=False)
     spec = TimeSpec(initial=t0, final=number_at(t.get("final"), f"{path}.final"),
                     final_lower=number_at(t.get("final_lower"), f"{path}.final_lower"),
@@ -194,8 +195,7 @@ def time_spec(t: dict, path: str) -> TimeSpec:
 
 
 def transcription_at(t: dict, path: str, limits: OcpLimits) -> Transcription:
-    unknown_fields(t, ("method", "intervals", "control", "substeps", "nodes", "max_refinements", "boundaries",
-                       "segment_nodes"), path)
+    unknown_fields(t, FIELDS["transcription"], path)
     method = t.get("method", "multiple_shooting")
     if method not in METHODS:
         raise OcpInputError(f"{path}.method", f"'{method}' is not one of {', '.join(METHODS)}")
@@ -251,7 +251,7 @@ def mesh_at(t: dict, path: str, method: str, limits: OcpLimits):
 
 
 def guess_at(g: dict, path: str, states, controls) -> Guess:
-    unknown_fields(g, ("states", "controls", "tf", "from_job"), path)
+    unknown_fields(g, FIELDS["guess"], path)
 
     def ends(raw, decls, key):
         declared = [d.name for d in decls]

@@ -32,15 +32,13 @@ import re
 
 from solvers.ocp.expressions import Boundary, EventTime, OcpInputError, closest, walk
 from solvers.ocp.problem import Link, NamedPhase, PhaseTime
+from solvers.ocp.shape import FIELDS
 from solvers.ocp.readers import OcpLimits, constraints_at, list_at, number_at, object_at, unknown_fields
 
-PHASE_FIELDS = ("name", "states", "controls", "time", "expressions", "dynamics", "path", "boundary",
-                "transcription", "guess")
-TOP_FIELDS = ("title", "constants", "tables", "parameters", "objective", "links", "phases", "guess", "plots",
-              "accuracy", "accuracy_required")
+PHASE_FIELDS = FIELDS["phase"]
+TOP_FIELDS = FIELDS["params.phases"]
 SINGLE_ONLY = ("states", "controls", "time", "expressions", "dynamics", "path", "boundary", "transcription")
-TIME_FIELDS = ("initial", "initial_lower", "initial_upper", "initial_guess", "final", "final_lower",
-               "final_upper", "final_guess")
+TIME_FIELDS = FIELDS["phase.time"]
 _PHASE_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_-]*\Z")
 MAX_PHASES = 20
 

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 from solvers.ocp.expressions import FUNCTIONS, RESERVED, OcpInputError, Scope, closest, parse_expression
 from solvers.ocp.problem import Constraint
+from solvers.ocp.shape import FIELDS
 
 _IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 
@@ -139,7 +140,7 @@ def constraints_at(raw, path: str, scope: Scope, parse, limits: OcpLimits) -> tu
     for i, c in enumerate(items):
         cp = f"{path}.{i}"
         c = object_at(c, cp)
-        unknown_fields(c, ("expr", "lower", "upper", "name"), cp)
+        unknown_fields(c, FIELDS["constraint"], cp)
         if "expr" not in c:
             raise OcpInputError(f"{cp}.expr", "an expression is required")
         lo, hi = number_at(c.get("lower"), f"{cp}.lower"), number_at(c.get("upper"), f"{cp}.upper")

@@ -21,6 +21,7 @@ from solvers.ocp import phases_spec
 from solvers.ocp.expressions import OcpInputError, Scope
 from solvers.ocp.phase_spec import Shared, declarations, parse_phase, time_spec
 from solvers.ocp.problem import NamedPhase, Objective, OcpProblem, PhaseProblem, PhaseTime, TableDecl, TimeSpec
+from solvers.ocp.shape import FIELDS
 from solvers.ocp.readers import (
     Names,
     OcpLimits,
@@ -33,12 +34,11 @@ from solvers.ocp.readers import (
 
 __all__ = ["OcpInputError", "OcpLimits", "OcpProblem", "parse_problem"]
 
-TOP_FIELDS = ("title", "constants", "tables", "states", "controls", "parameters", "time",
-              "expressions", "dynamics", "path", "boundary", "objective", "transcription", "guess",
-              "accuracy", "accuracy_required", "plots")
+TOP_FIELDS = FIELDS["params"]
+DEFAULT_LIMITS = OcpLimits()
 
 
-def parse_problem(params: dict, limits: OcpLimits = OcpLimits()) -> OcpProblem:
+def parse_problem(params: dict, limits: OcpLimits = DEFAULT_LIMITS) -> OcpProblem:
     """Validate the spec's ``params`` object and return the problem; :class:`OcpInputError` otherwise."""
     P = "params"
     if not isinstance(params, dict):
@@ -57,7 +57,7 @@ def parse_problem(params: dict, limits: OcpLimits = OcpLimits()) -> OcpProblem:
     objective = object_at(params.get("objective"), f"{P}.objective")
     if not objective:
         raise OcpInputError(f"{P}.objective", "an objective is required: {\"sense\", \"expr\"?, \"integrand\"?}")
-    unknown_fields(objective, ("sense", "expr", "integrand"), f"{P}.objective")
+    unknown_fields(objective, FIELDS["objective"], f"{P}.objective")
     sense = objective.get("sense", "minimize")
     if sense not in ("minimize", "maximize"):
         raise OcpInputError(f"{P}.objective.sense", f"'{sense}' is neither 'minimize' nor 'maximize'")
@@ -94,7 +94,7 @@ def _shared(params: dict, limits: OcpLimits) -> Shared:
         tp = f"{P}.tables.{tname}"
         names.declare(tname, "table", tp)
         tdef = object_at(tdef, tp)
-        unknown_fields(tdef, ("axes", "values"), tp)
+        unknown_fields(tdef, FIELDS["table"], tp)
         axes_raw = list_at(tdef.get("axes"), f"{tp}.axes")
         if len(axes_raw) not in (1, 2):
             raise OcpInputError(f"{tp}.axes", f"a table has 1 or 2 axes, not {len(axes_raw)}")
@@ -152,7 +152,7 @@ def _several(params: dict, shared: Shared, objective: dict, limits: OcpLimits) -
         raise OcpInputError(f"{P}.phases", f"{len(raw_phases)} phases exceed the limit "
                                            f"max_phases={phases_spec.MAX_PHASES}")
     guess_raw = object_at(params.get("guess"), f"{P}.guess")
-    unknown_fields(guess_raw, ("from_job",), f"{P}.guess")
+    unknown_fields(guess_raw, FIELDS["params.phases.guess"], f"{P}.guess")
     from_job = guess_raw.get("from_job")
     if from_job is not None and not isinstance(from_job, str):
         raise OcpInputError(f"{P}.guess.from_job", "a job id string")
