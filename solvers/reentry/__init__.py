@@ -1,7 +1,7 @@
 """Lifting reentry trajectory optimization by direct multiple shooting (the ``reentry`` job kind).
 
 The public face: :class:`ReentryProblem`, :class:`Terminal`, :class:`ReentrySolution`
-(:mod:`.problem`), :func:`solve` and the transcription's public pieces (:mod:`.solver`), the
+(:mod:`.problem`), :func:`solve` the NLP's pieces (:mod:`.shooting`), the
 initial guesses (:mod:`.guess`); the limits that hold between nodes are in :mod:`.limits`; the grid
 refined to an accuracy in :mod:`.refine` (whose ``solve`` is the package's).
 Names are imported on first use (:mod:`solvers.lazy`), so importing the package loads no CasADi.
@@ -16,8 +16,8 @@ _EXPORTS = {
     **dict.fromkeys(("OBJECTIVES", "T_SCALE", "HEAT_LOAD_SCALE", "Terminal", "ReentryProblem",
                      "ReentrySolution"), "problem"),
     "TerminalTolerance": "terminal",
-    **dict.fromkeys(("param_vector", "shooting_problem", "state_bounds", "objective_value",
-                     "path_quantities"), "solver"),
+    **dict.fromkeys(("param_vector", "shooting_problem", "state_bounds"), "shooting"),
+    **dict.fromkeys(("objective_value", "path_quantities"), "solver"),
     "solve": "refine",          # solver.solve, refined to ``accuracy`` when it is set
     **dict.fromkeys(("InitialGuess", "linear_guess", "on_grid", "rhs_numpy", "simulate_constant_controls"),
                     "guess"),
@@ -31,5 +31,5 @@ if TYPE_CHECKING:  # the same names, for readers, type checkers and import-graph
                                          Terminal)
     from solvers.reentry.terminal import TerminalTolerance
     from solvers.reentry.refine import solve
-    from solvers.reentry.solver import (objective_value, param_vector, path_quantities, shooting_problem,
-                                        state_bounds)
+    from solvers.reentry.shooting import param_vector, shooting_problem, state_bounds
+    from solvers.reentry.solver import objective_value, path_quantities

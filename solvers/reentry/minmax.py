@@ -31,11 +31,9 @@ import casadi as ca
 import numpy as np
 
 from solvers.common import Outcome
-from solvers.transcription.multiple_shooting import (
-    PathConstraint,
-    ShootingProblem,
-    Transcription,
-)
+from solvers.reentry.guess import InitialGuess, on_grid
+from solvers.reentry.shooting import param_vector, shooting_problem, state_bounds
+from solvers.transcription.multiple_shooting import PathConstraint, ShootingProblem, Transcription, control_at
 
 S_MAX = 100.0   # the epigraph variable's upper bound (peak / limit)
 
@@ -105,10 +103,6 @@ def coarse_least_peak(problem, guess, *, should_stop=None) -> dict | None:
     a min-max solve does not converge (then nothing is concluded).  ``guess``: the job's initial
     guess (an :class:`~solvers.reentry.guess.InitialGuess`).  Stops after the first grid when its
     least peak is under the limit: the second grid could only confirm that nothing is proved."""
-    # Local import, as solvers.reentry.refine does: the solver module imports this one.
-    from solvers.reentry.guess import InitialGuess, on_grid
-    from solvers.reentry.solver import param_vector, shooting_problem, state_bounds
-    from solvers.transcription.multiple_shooting import control_at
 
     limit = problem.max_heat_rate_w_m2
     tol = problem.limit_tolerance or 0.0

@@ -32,6 +32,7 @@ import numpy as np
 
 from solvers.common import Outcome
 from solvers.models.reentry_state import NU, NX, X_SCALE
+from solvers.reentry.shooting import param_vector, shooting_problem
 from solvers.transcription import refine as rf
 
 MAX_INTERVALS = 1000        # the service's default max_grid_intervals
@@ -54,7 +55,6 @@ class Trial:
 
 
 def _local_fn(problem, intervals: int) -> ca.Function:
-    from solvers.reentry.solver import param_vector, shooting_problem
 
     sp = shooting_problem(problem)
     key = (sp.key, problem.control, intervals, len(param_vector(problem)))
@@ -87,7 +87,6 @@ def _local_fn(problem, intervals: int) -> ca.Function:
 def local_errors(problem, sol) -> np.ndarray:
     """Per interval: the worst scaled difference between the next node and the interval re-flown
     from its own node (module docstring)."""
-    from solvers.reentry.solver import param_vector
 
     m = problem.intervals
     x, u = np.asarray(sol.x, float), np.asarray(sol.u, float)
