@@ -26,7 +26,7 @@ import difflib
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Union
+from typing import NoReturn, Union
 
 # name -> (smallest, largest) number of arguments; None: no upper bound.
 FUNCTIONS: dict[str, tuple[int, int | None]] = {
@@ -193,7 +193,7 @@ class _Converter:
     def __init__(self, path: str, scope: Scope):
         self.path, self.scope = path, scope
 
-    def fail(self, node: ast.AST, reason: str):
+    def fail(self, node: ast.AST, reason: str) -> NoReturn:
         col = getattr(node, "col_offset", None)
         where = f" (column {col + 1})" if col is not None else ""
         raise OcpInputError(self.path, reason + where)
@@ -294,6 +294,7 @@ class _Converter:
     def phase_of(self, node: ast.AST, arg: ast.AST, fn: str) -> str:
         """The phase a multi-phase event call names: its string literal (the only place one may be)."""
         phases = self.scope.phases
+        assert phases is not None  # called for a problem of several phases only
         if not (isinstance(arg, ast.Constant) and isinstance(arg.value, str)):
             self.fail(node, f"{fn}() names its phase by a string literal, e.g. \"{next(iter(phases), 'phase')}\"")
         if arg.value not in phases:
@@ -313,6 +314,7 @@ class _Converter:
         if len(node.args) != 2 or not isinstance(node.args[0], ast.Name):
             self.fail(node, f"{fn}() takes a state or control name and the phase's name: {fn}(x, \"phase\")")
         phase = self.phase_of(node, node.args[1], fn)
+        assert self.scope.phases is not None  # (phase_of checked it)
         arg, declared = node.args[0].id, self.scope.phases[phase]
         kind = declared.get(arg)
         if kind not in ("state", "control"):

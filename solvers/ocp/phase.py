@@ -23,6 +23,7 @@ t_scale, theta_scale, path_scale, boundary_scale, objective_scale]``.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import casadi as ca
@@ -109,6 +110,8 @@ class Element:
 
 
 class PhaseNLP:
+    pack: Callable[..., np.ndarray]  # (tf, theta, X, U) -> scaled z, set by solvers.ocp.scaling.numbers_of
+
     """A built (or cached) NLP for one phase structure, with the layout to pack and unpack it.
 
     The NLP is a sum of elements (:class:`Element`: intervals or segments, path nodes, the
@@ -222,9 +225,9 @@ class PhaseNLP:
         b, mayer = fns.events(t0, tf, x0 * P["xs"], xN * P["xs"], u0 * P["us"], uN * P["us"], theta, c)
         fn = ca.Function("ocp_events_el", [ca.vertcat(tfz, thz, x0, xN, u0, uN), p, k],
                          [b / P["bnds"] if fns.nboundary else ca.SX.zeros(0), objective * mayer])
-        cols = np.concatenate([self._common_cols(), self._x_cols(0), self._x_cols(g.n_nodes - 1),
+        ends = np.concatenate([self._common_cols(), self._x_cols(0), self._x_cols(g.n_nodes - 1),
                                self._u_cols(0), self._u_cols(g.n_nodes - 1)])
-        out.append(Element("boundary", fn, cols[None, :], np.zeros(1)))
+        out.append(Element("boundary", fn, ends[None, :], np.zeros(1)))
         return out
 
     def elements(self) -> list[Element]:
@@ -240,7 +243,7 @@ def solver_of_elements(elements: list[Element], *, nz: int, np_: int, name: str,
     """The IPOPT solver of a sum of elements (their constraints stacked in order), its
     ``layout`` the ``(name, rows)`` of each element with constraints."""
     z, p = ca.MX.sym("z", nz), ca.MX.sym("p", np_)
-    parts, layout, f = [], [], 0
+    parts, layout, f = [], [], ca.MX(0)
     for el in elements:
         W = ca.reshape(z[el.cols.ravel().tolist()], el.cols.shape[1], el.count)
         Y, F = el.fn.map(el.count, "serial")(W, p, ca.DM(el.kvals).T)
@@ -262,13 +265,13 @@ def _nz(expr: ca.SX) -> ca.SX:
 
 def _scatter(values: list, rows: list, cols: list, *, shape: tuple[int, int], upper: bool) -> ca.MX:
     """The sparse matrix whose entry (r, c) sums every value mapped there (only r <= c when ``upper``)."""
-    rows, cols = np.concatenate(rows), np.concatenate(cols)
-    keep = rows <= cols if upper else np.ones(rows.size, bool)
+    r, c = np.concatenate(rows), np.concatenate(cols)
+    keep = r <= c if upper else np.ones(r.size, np.bool_)
     nrow = shape[0]
-    key = cols.astype(np.int64) * nrow + rows
+    key = c.astype(np.int64) * nrow + r
     uniq, inv = np.unique(key[keep], return_inverse=True)
     sp = ca.Sparsity.triplet(nrow, shape[1], (uniq % nrow).tolist(), (uniq // nrow).tolist())
-    A = ca.DM(ca.Sparsity.triplet(uniq.size, rows.size, inv.tolist(), np.flatnonzero(keep).tolist()), 1.0)
+    A = ca.DM(ca.Sparsity.triplet(uniq.size, r.size, inv.tolist(), np.flatnonzero(keep).tolist()), 1.0)
     return ca.sparsity_cast(ca.mtimes(A, ca.vertcat(*values)), sp)
 
 

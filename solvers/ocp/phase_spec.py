@@ -76,7 +76,7 @@ def parse_phase(raw: dict, *, path: str, shared: Shared, time: TimeSpec, objecti
         raise OcpInputError(f"{path}.expressions", f"{len(exprs_raw)} expressions exceed the limit "
                                                    f"max_expressions={limits.max_expressions}")
     base = {**names.kinds, "t": "time", "t0": "time", "tf": "time"}
-    expressions = []
+    expressions: list = []
     for ename, etext in exprs_raw.items():
         ep = f"{path}.expressions.{ename}"
         names.declare(ename, "expression", ep)

@@ -199,7 +199,7 @@ def linkage(phases: list[NamedPhase], links) -> tuple[tuple[int, ...], tuple[tup
 
 
 def _events(expr) -> set[tuple]:
-    out = set()
+    out: set[tuple] = set()
     for n in walk(expr):
         if isinstance(n, Boundary) and n.phase:
             out.add((n.which, n.name, n.phase))

@@ -12,6 +12,7 @@ import keyword
 import math
 import re
 from dataclasses import dataclass
+from typing import Literal, overload
 
 from solvers.ocp.expressions import FUNCTIONS, RESERVED, OcpInputError, Scope, closest, parse_expression
 from solvers.ocp.problem import Constraint
@@ -94,6 +95,14 @@ def list_at(value, path: str) -> list:
     if not isinstance(value, list):
         raise OcpInputError(path, f"expected a list, not {type(value).__name__}")
     return value
+
+
+@overload
+def number_at(value, path: str, *, optional: Literal[False]) -> float: ...
+
+
+@overload
+def number_at(value, path: str, *, optional: bool = True) -> float | None: ...
 
 
 def number_at(value, path: str, *, optional: bool = True) -> float | None:

@@ -94,7 +94,7 @@ def link_values(problem: OcpProblem, phases: list[dict], theta) -> dict[str, dic
 
     from solvers.ocp.symbolic import to_sx
 
-    ev = {}
+    ev: dict[tuple, ca.SX] = {}
     for p in phases:
         ev[("t0", p["name"])], ev[("tf", p["name"])] = ca.SX(p["t0"]), ca.SX(p["tf"])
         for k, tr in p["trajectory"].items():

@@ -47,7 +47,7 @@ class Placed:
         p, lbg, ubg, self.nums = [], [], [], []
         for ph, b in zip(problem.phases, nlp.blocks):
             old = stored.get(ph.name)
-            warm = None if old is None else {**old, "parameters": initial_guess.get("parameters")}
+            warm = None if old is None else {**old, "parameters": (initial_guess or {}).get("parameters")}
             tf_g, th_g, X_g, U_g = guess_of(b.problem, b.nlp.grid, warm)
             num = numbers_of(b.problem, b.nlp, tf_g)
             lb, ub = num.lbz.copy(), num.ubz.copy()
@@ -108,6 +108,7 @@ class OcpSolve:
         nlp = TrajectoryNLP(problem, ipopt=ipopt)
         placed = Placed(problem, nlp, initial_guess)
         build_time = time.perf_counter() - t_start
+        assert nlp.solver is not None  # a TrajectoryNLP is built with its solver
         res = nlp.solver.solve(x0=placed.z0, lbx=placed.lbz, ubx=placed.ubz, lbg=placed.lbg, ubg=placed.ubg,
                                p=placed.p, on_progress=on_progress, should_stop=self.should_stop,
                                progress_span=(0.02, 0.9))

@@ -49,9 +49,11 @@ def to_sx(node: Expr, env: dict, tables: dict[str, TableDecl], boundary: dict | 
         return ca.SX(node.value)
     if isinstance(node, Name):
         return env[node.name]
-    if isinstance(node, Boundary):      # a multi-phase event names its phase
-        return boundary[(node.which, node.name, node.phase) if node.phase else (node.which, node.name)]
-    if isinstance(node, EventTime):
+    if isinstance(node, (Boundary, EventTime)):
+        if boundary is None:  # the parser refuses it
+            raise ValueError("initial(), final(), t0() or tf() outside a boundary expression")
+        if isinstance(node, Boundary):      # a multi-phase event names its phase
+            return boundary[(node.which, node.name, node.phase) if node.phase else (node.which, node.name)]
         return boundary[(node.which, node.phase)]
     if isinstance(node, Neg):
         return -to_sx(node.operand, env, tables, boundary)

@@ -22,6 +22,7 @@ Parameter vector: the phases' own parameter vectors one after the other (each as
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -63,12 +64,12 @@ class TrajectoryNLP:
         if mp.single:
             ph = mp.phases[0]
             nlp = PhaseNLP(ph.problem, functions_of(ph.problem), ipopt=ipopt)
-            self.blocks = [Block(ph.name, ph.problem, nlp, np.arange(nlp.nz), None, slice(0, nlp.np_))]
+            self.blocks: list[Block] = [Block(ph.name, ph.problem, nlp, np.arange(nlp.nz), None, slice(0, nlp.np_))]
             self.nz, self.np_, self.links_p = nlp.nz, nlp.np_, slice(nlp.np_, nlp.np_)
             self.solver, self.was_cached, self.layout = nlp.solver, nlp.was_cached, nlp.layout
             return
         nth = len(mp.parameters)
-        self.blocks: list[Block] = []
+        self.blocks = []
         col, pos = nth, 0
         for ph in mp.phases:
             nlp = PhaseNLP(ph.problem, functions_of(ph.problem), build=False)
@@ -132,7 +133,8 @@ class TrajectoryNLP:
         c, theta = split0["c"], w[:nth] * split0["thetas"]
         env = {n: c[i] for i, (n, _) in enumerate(mp.constants)}
         env.update({q.name: theta[i] for i, q in enumerate(mp.parameters)})
-        ev, per = {}, []
+        ev: dict[tuple, Any] = {}
+        per = []
         i = nth
         for b in self.blocks:
             f = b.nlp.fns

@@ -83,8 +83,9 @@ def _fast_rhs(fns, args):
     a = np.zeros(1 + nx + nu + rest.numel())
     a[1 + nx + nu:] = np.concatenate([args[0], args[1], [args[2], args[3]]])
     res = np.zeros(nx)
-    buf.set_arg(0, memoryview(a))
-    buf.set_res(0, memoryview(res))
+    # casadi's stubs want the byte size too, which its Python binding reads from the buffer itself
+    buf.set_arg(0, a.data)  # type: ignore[call-arg]
+    buf.set_res(0, res.data)  # type: ignore[call-arg]
 
     calls = [0]
 
@@ -102,7 +103,7 @@ def _fast_rhs(fns, args):
             raise RuntimeError(f"more than {MAX_RHS_CALLS} right-hand-side evaluations (a stiff or "
                                "singular trajectory)")
         return res.copy()
-    rhs.buffer = buf          # keeps the buffer alive with the closure
+    rhs.buffer = buf  # type: ignore[attr-defined]  # keeps the buffer alive with the closure
     return rhs
 
 
@@ -114,13 +115,15 @@ def _interval_rhs(grid, U, uf, rhs, k, ta, tb):
     """``f(t, x)`` on interval ``k``: the controls as the transcription defines them there."""
     ua, ub = U[:, k], U[:, k + 1]
     if grid.method == "multiple_shooting" and grid.control == "linear":
-        def f(t, x, ta=ta, ua=ua, du=(ub - ua) / (tb - ta)):
+        du = (ub - ua) / (tb - ta)
+
+        def f(t, x):
             return rhs(t, x, ua + (t - ta) * du)
     elif grid.method == "multiple_shooting":
-        def f(t, x, ua=ua):
+        def f(t, x):
             return rhs(t, x, ua)
     else:
-        def f(t, x, k=k):
+        def f(t, x):
             return rhs(t, x, uf(t, k)[:, 0])
     return f
 
