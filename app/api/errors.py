@@ -59,7 +59,10 @@ async def validation_error_handler(request: Request, exc: Exception) -> JSONResp
     detail = []
     for err in errors[:MAX_ERRORS]:
         loc = [_json_safe(p) for p in err.get("loc", ())]
-        item = {"loc": loc, "msg": _short(str(err.get("msg", ""))), "type": err.get("type", "")}
+        msg = str(err.get("msg", ""))
+        # a literal_error's message lists the allowed values (ours, not the caller's text): cut, it hid the
+        # valid preset names a mistyped one needs
+        item = {"loc": loc, "msg": msg if err.get("type") == "literal_error" else _short(msg), "type": err.get("type", "")}
         if "input" in err:
             item["input"] = _json_safe(err["input"])
         detail.append(item)

@@ -39,7 +39,7 @@ async def _lifespan(_app: FastAPI):
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:
-    from app.api.routes import (console, console_summary, docs, events, guide, health, jobs, lambert,  # after settings:
+    from app.api.routes import (admin, console, console_summary, docs, events, guide, health, jobs, lambert,  # after settings:
                                 metrics, presets, results, studies, usage, vehicles)  # routes read the registry
     from app.service.broker import create_publisher
     from app.api.schemas import ValidationErrorBody
@@ -91,6 +91,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.include_router(vehicles.router)
     app.include_router(studies.router, responses=bad_body | needs_key)
     app.include_router(usage.router, responses=needs_key)
+    app.include_router(admin.router, responses=bad_body | needs_key)
     app.include_router(lambert.router, responses=bad_body | needs_key, max_body_size=lambert.max_body_bytes(settings))
     app.include_router(health.router)
     app.include_router(metrics.router)

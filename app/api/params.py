@@ -1,24 +1,13 @@
 """Resolving a submission's parameters: preset, then the user's overrides, then validation."""
 from __future__ import annotations
 
-import copy
 from typing import Any
 
 from fastapi.exceptions import RequestValidationError
 from pydantic import ValidationError
 
 from app.kinds.base import KindSpec
-
-
-def deep_merge(base: dict, override: dict) -> dict:
-    """``override`` wins; nested dicts merge key by key; lists are replaced whole."""
-    out = copy.deepcopy(base)
-    for key, value in override.items():
-        if isinstance(value, dict) and isinstance(out.get(key), dict):
-            out[key] = deep_merge(out[key], value)
-        else:
-            out[key] = copy.deepcopy(value)
-    return out
+from app.runtime.merge import deep_merge  # re-exported: its callers import it from here
 
 
 def resolve_params(spec: KindSpec, preset_params: dict | None, overrides: dict | None) -> dict:

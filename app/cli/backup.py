@@ -48,8 +48,10 @@ class BackupError(Exception):
 
 
 def add_commands(sub) -> None:
-    p = sub.add_parser("backup", help="copy the configured database to FILE while the service runs")
+    p = sub.add_parser("backup", help="copy the service's database to FILE while the service runs")
     p.add_argument("file", type=Path, help="the backup file to write (replaced if it exists)")
+    p.add_argument("--url", help="download it from this service's API with an admin key (TRAJLAB_URL, "
+                                 "TRAJLAB_API_KEY); without it: the database as `trajlab serve` finds it")
     p.set_defaults(fn=_run_backup)
     p = sub.add_parser("restore", help="restore a backup FILE into the configured (empty) database")
     p.add_argument("file", type=Path, help="a file written by trajlab backup")
@@ -64,8 +66,22 @@ def _url() -> str:
 
 
 def _run_backup(args: argparse.Namespace) -> int:
+    from app.cli import operator
+
+    if operator.service_url(args):  # the service's own copy, downloaded (GET /v1/admin/backup runs this command)
+        def download() -> int:
+            t0 = time.monotonic()
+            size = operator.client(args).backup(args.file)
+            print(f"trajlab backup: {KINDS.get(file_kind(args.file) or '', 'unknown')} backup of the service at "
+                  f"{operator.service_url(args)} written to {args.file} ({size / 1e6:.1f} MB) in "
+                  f"{time.monotonic() - t0:.1f} s", file=sys.stderr)
+            return 0
+
+        return operator.run("backup", download)
     try:
-        done = backup(_url(), args.file)
+        done = operator.run("backup", lambda: backup(operator.database_url(), args.file))
+        if isinstance(done, int):
+            return done
     except BackupError as exc:
         print(f"trajlab backup: {exc}", file=sys.stderr)
         return 1

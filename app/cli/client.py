@@ -15,9 +15,17 @@ from __future__ import annotations
 
 import json
 import os
+import sys
 import time
-from typing import Any, Callable, Iterator
+from collections.abc import Callable, Iterator
+from typing import Any
 
+# httpx's own command line (httpx._main) imports click, rich and pygments whenever they are installed: 80% of
+# httpx's import time, paid by every trajlab command for nothing.  httpx imports it under try/except
+# ImportError; a None in sys.modules is Python's way to make that import fail (the fallback says to install
+# httpx[cli]).  Only when httpx is not loaded yet: a process that loaded it keeps it whole.
+if "httpx" not in sys.modules:
+    sys.modules.setdefault("httpx._main", None)  # type: ignore[assignment]
 import httpx
 
 FINAL_STATUSES = ("succeeded", "failed", "cancelled")
@@ -133,6 +141,18 @@ class Client:
     def presets(self) -> list[dict]:
         return self._request("GET", "/v1/presets").json()
 
+    def vehicles(self) -> list[dict]:
+        return self._request("GET", "/v1/vehicles").json()
+
+    def summary(self, job_id: str) -> dict:
+        """What the console's job page leads with: ``headlines`` of a succeeded job, ``failure`` (and
+        ``failure_lines``, as the CLI prints it) of a failed one."""
+        return self._request("GET", f"/console/jobs/{job_id}/summary").json()
+
+    def numbers(self, job_id: str) -> dict:
+        """The key numbers of a succeeded job (empty otherwise), as the console's job page shows them."""
+        return self._request("GET", f"/console/jobs/{job_id}/numbers").json()
+
     def events(self, job_id: str, *, last_event_id: str | None = None) -> Iterator[dict]:
         """The job's events until its final one (``event == "end"``)."""
         headers = {**self.headers, **({"Last-Event-ID": last_event_id} if last_event_id else {})}
@@ -165,6 +185,49 @@ class Client:
             if job["status"] in FINAL_STATUSES:
                 return job
         raise TimeoutError(f"job {job_id} did not finish within {timeout} s")
+
+    # --- the operator's (an admin key; /v1/admin) -------------------------------------------
+    def create_key(self, *, name: str, owner: str | None = None, admin: bool = False) -> dict:
+        """A new API key: its info and ``key``, the only time it is shown."""
+        return self._request("POST", "/v1/admin/keys", json={"name": name, "owner": owner, "admin": admin}).json()
+
+    def list_keys(self) -> list[dict]:
+        return self._request("GET", "/v1/admin/keys").json()
+
+    def revoke_key(self, name: str) -> None:
+        self._request("DELETE", f"/v1/admin/keys/{name}")
+
+    def purge(self, *, older_than_days: float, statuses: list[str] | None = None, dry_run: bool = False) -> dict:
+        body: dict = {"older_than_days": older_than_days, "dry_run": dry_run}
+        if statuses:
+            body["statuses"] = statuses
+        return self._request("POST", "/v1/admin/purge", json=body).json()
+
+    def backup(self, dest, *, timeout: float = 3600.0) -> int:
+        """Download a backup of the service's database to ``dest`` (written beside it, then renamed: an
+        interrupted download never leaves a file that looks whole); the bytes written."""
+        from pathlib import Path
+
+        dest = Path(dest)
+        partial = dest.with_name(dest.name + ".partial")
+        try:
+            with self.http.stream("GET", "/v1/admin/backup", headers=self.headers,
+                                  timeout=httpx.Timeout(30.0, read=timeout)) as r:
+                if r.status_code >= 400:
+                    r.read()
+                    msg, body = _message(r)
+                    raise TrajlabError(r.status_code, msg, body)
+                with open(partial, "wb") as f:
+                    f.writelines(r.iter_bytes())
+        except httpx.TransportError as exc:
+            partial.unlink(missing_ok=True)
+            raise TrajlabError(0, f"cannot reach trajlab at {self.url} ({type(exc).__name__}); "
+                                  f"is it running? (trajlab serve, or set TRAJLAB_URL)") from None
+        except BaseException:
+            partial.unlink(missing_ok=True)
+            raise
+        partial.replace(dest)
+        return dest.stat().st_size
 
     # --- studies ---------------------------------------------------------------------------
     def submit_study(self, *, study_preset: str | None = None, kind: str | None = None, preset: str | None = None,

@@ -1,5 +1,7 @@
-"""``trajlab submit | jobs | show | wait | cancel | result | delete | usage``: the command-line client of any
-trajlab URL.
+"""``trajlab submit | jobs | show | wait | cancel | result | delete | usage | presets | vehicles``: the
+command-line client of any trajlab URL.  It imports no part of the service (FastAPI, SQLAlchemy, the kinds,
+CasADi, numpy): httpx, and rich for a progress bar; what needs a kind (headlines, key numbers, a failure's
+explanation) it asks the service for.
 
 Exit codes a script can use: 0 succeeded (or done), 1 failed, 2 bad input
 (the API's 4xx, printed as its one-line message), 3 cancelled, 4 the service
@@ -44,35 +46,20 @@ def _print_job(job: dict) -> None:
 
 
 def _print_numbers(client, job: dict) -> None:
-    """The headline numbers (app.kinds.headlines), then the key numbers; a failure explained with what
-    to try (app.kinds.failures), on stderr."""
-    from app.service.summary import headlines, key_numbers
-
+    """The headline numbers, then the key numbers; a failure explained with what to try, on stderr.  The
+    service computes all three (its kinds declare them): the client imports no kind, so it starts in
+    a fraction of a second (issue 38)."""
+    if job["status"] not in ("succeeded", "failed"):
+        return
+    summary = client.summary(job["id"])
     if job["status"] == "succeeded":
-        result = client.result(job["id"])
-        for line in headlines(job["kind"], result, job.get("params")):
+        for line in summary.get("headlines") or []:
             print(f"= {line['text']}")
-        numbers = key_numbers(job["kind"], result)
-        for name, value in numbers.items():
+        for name, value in client.numbers(job["id"]).items():
             print(f"  {name:<32} {value:.6g}" if isinstance(value, float) else f"  {name:<32} {value}")
-    elif job.get("error"):
-        from app.kinds.failures import as_lines, explain
-
-        explained = explain(job["error"], _last_iterate(client, job["id"]))
-        for text in as_lines(explained) if explained is not None else []:
-            print(f"  {text}", file=sys.stderr)
-
-
-def _last_iterate(client, job_id: str) -> dict | None:
-    """A failed job's stored diagnostic (the 409's ``partial_result``): where the solver stopped, so the
-    explanation can say at what time; None when there is none or it cannot be read."""
-    import httpx
-
-    try:
-        r = client.http.get(f"/v1/jobs/{job_id}/result", headers=client.headers)
-        return r.json().get("partial_result") if r.status_code == 409 else None
-    except (httpx.HTTPError, ValueError, AttributeError):
-        return None
+    else:
+        for line in summary.get("failure_lines") or []:
+            print(f"  {line}", file=sys.stderr)
 
 
 def _follow(client, job_id: str, *, quiet: bool) -> dict:
@@ -138,7 +125,7 @@ def _read_submission(args) -> tuple[str, str | None, dict, str | None]:
 
 
 def cmd_submit(args) -> int:
-    from app.api.params import deep_merge
+    from app.runtime.merge import deep_merge
 
     kind, preset, params, label = _read_submission(args)
     params = deep_merge(params, parse_set(args.set or []))
@@ -210,13 +197,40 @@ def cmd_result(args) -> int:
     if args.out:
         Path(args.out).write_text(text)
         if result is not None:  # stdout is free: what the answer says, as `wait` prints it
-            from app.service.summary import headlines
-
-            job = client.job(args.id)
-            for line in headlines(job["kind"], result, job.get("params")):
+            for line in client.summary(args.id).get("headlines") or []:
                 print(f"= {line['text']}")
     else:
         sys.stdout.write(text if text.endswith("\n") else text + "\n")
+    return 0
+
+
+def cmd_presets(args) -> int:
+    """The named cases, by kind: name and the first line of the description; ``KIND`` narrows them."""
+    presets = _client(args).presets()
+    kinds = sorted({p["kind"] for p in presets})
+    if args.kind and args.kind not in kinds:
+        print(f"trajlab presets: no kind {args.kind!r}; the kinds: {', '.join(kinds)}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    for kind in [args.kind] if args.kind else kinds:
+        print(kind)
+        for p in presets:
+            if p["kind"] == kind:
+                first = (p.get("description") or "").strip().splitlines()
+                print(f"  {p['name']:<40} {first[0][:80] if first else ''}")
+    print(f"trajlab submit KIND --preset NAME [--set path=value ...] --wait; "
+          f"a preset's parameters: {_client(args).url}/v1/presets/NAME", file=sys.stderr)
+    return 0
+
+
+def cmd_vehicles(args) -> int:
+    """The named vehicles a reentry job may fly (``--set vehicle.preset=NAME``)."""
+    vehicles = _client(args).vehicles()
+    for v in vehicles:
+        data, planet = v.get("vehicle") or {}, (v.get("planet") or {}).get("preset", "")
+        first = (v.get("description") or "").strip().splitlines()
+        print(f"{v['name']:<28} {planet:<6} {data.get('mass_kg', 0):>9.0f} kg {data.get('area_m2', 0):>7.2f} m2  "
+              f"{first[0][:70] if first else ''}")
+    print("fly one with: trajlab submit reentry --preset NAME --set vehicle.preset=VEHICLE", file=sys.stderr)
     return 0
 
 
@@ -263,6 +277,11 @@ def add_commands(sub) -> None:
     p.set_defaults(fn=cmd_delete)
     p = common(sub.add_parser("usage", help="your jobs, the bytes they keep and the storage quota"))
     p.set_defaults(fn=cmd_usage)
+    p = common(sub.add_parser("presets", help="the named cases of every kind (or of KIND) to submit with --preset"))
+    p.add_argument("kind", nargs="?", help="only this kind's")
+    p.set_defaults(fn=cmd_presets)
+    p = common(sub.add_parser("vehicles", help="the named vehicles a reentry job may fly (vehicle.preset)"))
+    p.set_defaults(fn=cmd_vehicles)
 
 
 def run(args) -> int:

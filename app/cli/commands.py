@@ -20,6 +20,19 @@ from pathlib import Path
 
 log = logging.getLogger("trajlab")
 
+# `trajlab --help`: plain text (the module docstring is reStructuredText for the reader of this file)
+DESCRIPTION = """trajlab: trajectory optimization as a service.
+
+  trajlab serve                      start the service here (console http://127.0.0.1:8000/)
+  trajlab presets [KIND]             the named cases; trajlab vehicles: the named vehicles
+  trajlab submit KIND --preset NAME --wait
+                                     submit a job and follow it to its numbers"""
+EPILOG = """The client commands (submit, jobs, show, wait, cancel, result, delete, usage, study, presets,
+vehicles) talk to the service at --url or TRAJLAB_URL (default http://127.0.0.1:$TRAJLAB_PORT or :8000)
+with the key in TRAJLAB_API_KEY.  keys, purge and backup do too when a URL is given (an admin key),
+else they open the database `trajlab serve` uses from here (TRAJLAB_DATA_DIR, default ./var).
+`trajlab COMMAND --help` for a command's options; the guide is at /guide/ on the running service."""
+
 
 def cmd_serve(args: argparse.Namespace) -> int:
     from app.runtime import embedded
@@ -187,8 +200,9 @@ def main(argv: list[str] | None = None) -> int:
 
     # read here, not through Settings: the client commands run without a service's settings
     logs.configure("json" if os.environ.get("TRAJLAB_LOG_FORMAT", "").lower() == "json" else "text")
-    parser = argparse.ArgumentParser(prog="trajlab", description=__doc__.split("\n")[0])
-    sub = parser.add_subparsers(dest="command", required=True)
+    parser = argparse.ArgumentParser(prog="trajlab", description=DESCRIPTION, epilog=EPILOG,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name, fn, help_ in (("serve", cmd_serve, "embedded all-in-one: Redis, worker and API"),
                             ("api", cmd_api, "the API only (production)")):
         p = sub.add_parser(name, help=help_)

@@ -13,7 +13,7 @@ from fastapi.responses import Response
 
 from app.api.access import PrincipalDep, visible_job
 from app.api.deps import DatabaseDep
-from app.kinds.failures import explain
+from app.kinds.failures import as_lines, explain
 from app.results import plots as plot_defs
 from app.service import jobs
 from app.service.summary import headlines
@@ -30,6 +30,8 @@ def _summary(db, job_id: str, principal) -> dict:
         out["headlines"] = headlines(job.kind, result, job.params)
     elif job.status == "failed":
         out["failure"] = explain(job.error, result)
+        # as the CLI prints it (it imports no kind)
+        out["failure_lines"] = as_lines(out["failure"]) if out["failure"] is not None else []
         if result:
             out["last_iterate_plots"] = [{"name": p.name, "title": p.title,
                                           "png": f"/console/jobs/{job_id}/last-iterate/{p.name}.png"}
