@@ -78,10 +78,16 @@ def _run_backup(args: argparse.Namespace) -> int:
             return 0
 
         return operator.run("backup", download)
+    done: dict = {}
+
+    def take() -> int:
+        done.update(backup(operator.database_url(), args.file))
+        return 0
+
     try:
-        done = operator.run("backup", lambda: backup(operator.database_url(), args.file))
-        if isinstance(done, int):
-            return done
+        failed = operator.run("backup", take)  # a missing or unreadable database: one line, exit 1
+        if failed:
+            return failed
     except BackupError as exc:
         print(f"trajlab backup: {exc}", file=sys.stderr)
         return 1

@@ -25,7 +25,7 @@ from typing import Any
 # ImportError; a None in sys.modules is Python's way to make that import fail (the fallback says to install
 # httpx[cli]).  Only when httpx is not loaded yet: a process that loaded it keeps it whole.
 if "httpx" not in sys.modules:
-    sys.modules.setdefault("httpx._main", None)  # type: ignore[assignment]
+    sys.modules.setdefault("httpx._main", None)  # type: ignore[arg-type]
 import httpx
 
 FINAL_STATUSES = ("succeeded", "failed", "cancelled")
