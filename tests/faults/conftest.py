@@ -39,6 +39,7 @@ class Stack:
         upgrade(pg.url)
         self.client = TestClient(create_app(self.settings))
         self.procs: dict[str, subprocess.Popen] = {}
+        self._ready_before: dict[str, int] = {}
         self._n = 0
 
     def _spawn(self, name: str, cmd: list[str], env: dict | None = None) -> None:
@@ -51,9 +52,24 @@ class Stack:
         """``trajlab worker`` as an operator starts it: a pool of ``concurrency`` for both queues and one
         process reserved for quick jobs (app.cli.pools); ``prefix`` runs it elsewhere (``ip netns exec``)."""
         self._n += 1
+        self._ready_before[name] = self._ready_lines(name)  # a restarted worker appends to its log
         self._spawn(name, [*prefix, sys.executable, "-m", "app.cli.commands", "worker", "--loglevel=INFO",
                            "--name", f"fault{self._n}@%h"],
                     env={"TRAJLAB_WORKER_CONCURRENCY": str(concurrency), "TRAJLAB_QUICK_CONCURRENCY": "1", **(env or {})})
+
+    def wait_ready(self, name: str = "worker", *, pools: int = 2, timeout: float = 300) -> float:
+        """Wait until ``pools`` Celery pools of worker ``name`` logged ``ready.`` (its start, a minute at load
+        14, is no part of a recovery being timed); the seconds it took."""
+        t0, log = time.monotonic(), self.tmp / f"{name}.log"
+        while self._ready_lines(name) - self._ready_before[name] < pools:
+            assert self.procs[name].poll() is None, f"{name} exited: {log}"
+            assert time.monotonic() - t0 < timeout, f"{name} not ready within {timeout} s: {log}"
+            time.sleep(0.2)
+        return time.monotonic() - t0
+
+    def _ready_lines(self, name: str) -> int:
+        log = self.tmp / f"{name}.log"
+        return log.read_text(errors="replace").count(" ready.") if log.exists() else 0
 
     def start_recovery(self) -> None:
         self._spawn("recover", [sys.executable, "-m", "app.cli.commands", "recover"])
