@@ -3,13 +3,13 @@
 # repository for that release.
 
 # The user guide (/guide): MkDocs builds it from docs/, and its hook (scripts/guide_hooks.py) imports the
-# app for the OpenAPI reference, so this stage installs the locked test extra (MkDocs, Material and the
-# service's own dependencies, with hashes); only the built site leaves it.
+# app for the OpenAPI reference, so this stage installs the locked base dependencies (MkDocs and Material
+# are among them, as `make install` builds the guide too), with hashes; only the built site leaves it.
 FROM python:3.11-slim-bookworm AS guide
 WORKDIR /srv/trajlab
 ENV PYTHONDONTWRITEBYTECODE=1 NO_MKDOCS_2_WARNING=1 MPLCONFIGDIR=/tmp/matplotlib NUMBA_CACHE_DIR=/tmp/numba
-COPY requirements/test.txt ./requirements/test.txt
-RUN pip install --no-cache-dir --require-hashes -r requirements/test.txt
+COPY requirements/base.txt ./requirements/base.txt
+RUN pip install --no-cache-dir --require-hashes -r requirements/base.txt
 COPY pyproject.toml README.md alembic.ini mkdocs.yml ./
 COPY docs ./docs
 COPY examples ./examples

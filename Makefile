@@ -43,12 +43,20 @@ lock: $(VENV)/.installed
 	$(UV) export --quiet --frozen --no-emit-project --no-header --extra bench -o requirements/bench.txt
 
 # The user guide (MkDocs, docs/ + mkdocs.yml) into app/static/guide, which the service serves at /guide.
-# MkDocs comes with the test extra; the suite builds it too (tests/unit/test_docs_site.py, --strict).
-guide: $(VENV)/.installed-test
+# `make install` (so `make run`) builds it: the console, every failed job and the CLI link to /guide/, a 404
+# on a fresh clone before (issue 38).  MkDocs is a base dependency for that; the build (~10 s of CPU, its
+# hook imports the app for the API reference) runs again only when docs/, mkdocs.yml or the hook changed.
+# The suite builds it too (tests/unit/test_docs_site.py, --strict).
+GUIDE := app/static/guide/index.html
+$(GUIDE): $(VENV)/.installed mkdocs.yml scripts/guide_hooks.py $(shell find docs -type f 2>/dev/null)
+	NO_MKDOCS_2_WARNING=1 $(VENV)/bin/mkdocs build --strict --quiet -d app/static/guide
+	touch $@
+
+guide: $(VENV)/.installed
 	NO_MKDOCS_2_WARNING=1 $(VENV)/bin/mkdocs build --strict --quiet -d app/static/guide
 
-install: $(VENV)/.installed
-install-test: $(VENV)/.installed-test
+install: $(VENV)/.installed $(GUIDE)
+install-test: $(VENV)/.installed-test $(GUIDE)
 
 run: install
 	@$(PY) scripts/first_healthz.py --port $(PORT) --since $(MAKE_STARTED) &

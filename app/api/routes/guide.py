@@ -1,7 +1,7 @@
 """``/guide``: the user guide (MkDocs, Material theme, built from ``docs/`` by ``make guide``) as static files.
 
-The built site lives in the package (``app/static/guide``, not in git: ``make guide`` or the docs test
-writes it), so the service and the guide it serves come from one checkout.  The pages load nothing from
+The built site lives in the package (``app/static/guide``, not in git: ``make install``, ``make guide`` or
+the docs test writes it), so the service and the guide it serves come from one checkout.  The pages load nothing from
 the internet (``font: false`` in mkdocs.yml; tests/unit/test_docs_site.py checks every built page).
 Material's pages carry small inline scripts (its palette and search set-up), so ``/guide`` pages get the
 console's policy with those scripts allowed by a per-response nonce (app.api.security_headers), as
@@ -19,7 +19,7 @@ from app.api.security_headers import html_with_nonce
 
 SITE = Path(__file__).resolve().parents[2] / "static" / "guide"
 NOT_BUILT = ("<!doctype html><title>trajlab guide</title><h1>The guide is not built</h1>"
-             "<p>Run <code>make guide</code> (mkdocs build --strict; the test extra installs MkDocs) and reload.</p>")
+             "<p>Run <code>make install</code> (or <code>make guide</code>: mkdocs build --strict) and reload.</p>")
 
 
 class GuideFiles(StaticFiles):
