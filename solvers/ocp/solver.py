@@ -29,6 +29,7 @@ from solvers.ocp.scaling import numbers_of
 from solvers.ocp.solution import OcpSolution, solution_of
 from solvers.ocp.terminal import TERMINAL_ROUNDS, grid_words
 from solvers.ocp.trajectory import TrajectoryNLP
+from solvers.ocp.violations import name_them
 
 __all__ = ["AGREEMENT_TOLERANCE", "TERMINAL_ROUNDS", "WARM_IPOPT", "OcpSolution", "OcpSolve", "solve"]
 
@@ -125,6 +126,7 @@ class OcpSolve:
         status.solve_time_s = first[1] + sum(r["solve_time_s"] for r in rounds)
         status.build_time_s = build_time if not nlp.was_cached else 0.0
         status.details = {**status.details, "limit_rounds": rounds, "solver_cached": nlp.was_cached}
+        name_them(status, problem, nlp, checks, placed.nums)     # IPOPT's own failure, by the user's names
         _judge(status, checks, rounds, problem)
         progress(1.0, status.outcome.value)
         return solution_of(problem, nlp=nlp, res=res, status=status, checks=checks, rounds=rounds)
