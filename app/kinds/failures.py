@@ -111,9 +111,13 @@ def explain(error: dict | None, result: dict | None = None) -> dict | None:
     if t is not None:
         where = f"around t = {t:.1f} s into the flight (the interval the message names)"
     proved = details.get("solver_status") == "pinned_end_bound" or "certificate" in details
+    # a kind that knows the cause and the problem's own fields stores its advice with the error
+    # (app/kinds/<kind>/advice.py); the shared lines of the code are the fallback
+    own = details.get("advice")
+    kind_advice = own if isinstance(own, list) and own and all(isinstance(a, str) for a in own) else None
     return {"code": code, "what": WHAT.get(code, WHAT["internal"]), "message": message, "where": where,
             "proved": bool(proved), "iterations": details.get("iterations"),
-            "advice": ADVICE.get(code, ADVICE["internal"]), "guide": "/guide/failures/"}
+            "advice": kind_advice or ADVICE.get(code, ADVICE["internal"]), "guide": "/guide/failures/"}
 
 
 def as_lines(explained: dict) -> list[str]:

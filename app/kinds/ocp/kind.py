@@ -18,6 +18,7 @@ from app.kinds.base import (
     RunOutcome,
     outcome_from_status,
 )
+from app.kinds.ocp.advice import advice
 from app.kinds.ocp.footprint import MEMORY, compare_series, trajectory_table
 from app.kinds.ocp.headlines import headlines
 from app.kinds.ocp.params import OcpParams
@@ -58,7 +59,13 @@ def run(params: OcpParams, ctx: JobContext) -> RunOutcome:
         raise JobFailure("invalid_input", f"{WARM_START_FIELD}: job {from_job} does not fit this problem "
                                           f"({type(exc).__name__}: {str(exc)[:200]})") from None
     result = build_result(sol, params, wall_time_s=time.perf_counter() - t_start, warm_start=from_job)
-    return outcome_from_status(sol.status, result)
+    outcome = outcome_from_status(sol.status, result)
+    if outcome.error is not None:           # what to try, by this problem's cause and transcription
+        details = outcome.error.get("details") or {}
+        lines = advice(outcome.error["code"], details, problem)
+        if lines:
+            outcome.error["details"] = {**details, "advice": lines}
+    return outcome
 
 
 def _limits_held(verification) -> bool | None:
