@@ -40,10 +40,9 @@ def fail(body: dict) -> dict:
     return outcome.error
 
 
-def test_an_overflowing_guess_is_the_solvers_failure_with_the_methods_advice():
+def test_an_overflowing_guess_says_so_with_the_methods_advice():
     error = fail(HYPERSENSITIVE_LONG)
     assert error["details"]["solver_status"] == "Invalid_Number_Detected"
-    assert error["code"] == "solver_failed", error
     assert "overflow or NaN at the first guess" in error["message"]
     explained = explain(error)
     assert explained is not None
