@@ -19,7 +19,7 @@ _SCALE = ("Give each state and control a scale (states[].scale) and the bounds i
 
 
 def _methods(problem) -> set[str]:
-    return {ph.transcription.method for ph in problem.phases}
+    return {ph.problem.phase.transcription.method for ph in problem.phases}
 
 
 def _invalid_number(problem) -> list[str]:
