@@ -4,7 +4,7 @@ Run: ``python -m benchmarks.memory`` (``--kinds reentry,intercept`` for a subset
 
 Each kind's default preset (its first, ``KindSpec.presets[0]``) runs in a fresh Python process, the
 way a worker's pool child runs it: the parameters resolved as the API resolves them
-(``app.api.params.resolve_params``), validated by the kind's model, then the kind's ``run`` with a minimal
+(``app.service.params.resolve_params``), validated by the kind's model, then the kind's ``run`` with a minimal
 in-process job context (Monte Carlo in this process, as a worker does below its fan-out threshold).
 The figure is the child's peak resident set from the kernel (``ru_maxrss`` of ``os.wait4`` on that
 child, cross-checked by its own ``VmHWM``), together with the resident set after the imports alone
@@ -41,7 +41,7 @@ def _status_kb(field: str) -> int:
 def child(kind: str) -> int:
     """Run ``kind``'s default preset here and print one JSON line (the parent measures this process)."""
     from app.kinds import KINDS
-    from app.api.params import resolve_params
+    from app.service.params import resolve_params
 
     spec = KINDS[kind]
     preset = spec.presets[0]

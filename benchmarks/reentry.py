@@ -49,7 +49,7 @@ def child(intervals: int, warm_runs: int = 3) -> dict:
     """One process: a cold job, then ``warm_runs`` warm ones (printed as JSON by ``--child``)."""
     from app.kinds.reentry import PRESETS, run
     from app.kinds.reentry.params import ReentryParams
-    from app.api.params import deep_merge
+    from app.service.params import deep_merge
     from app.kinds.base import InProcessContext
 
     preset = next(p for p in PRESETS if p.name == "betts-max-crossrange")

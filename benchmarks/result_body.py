@@ -24,7 +24,7 @@ from fastapi.testclient import TestClient
 
 from app.kinds import KINDS, PRESETS
 from app.kinds.base import InProcessContext
-from app.api.params import resolve_params
+from app.service.params import resolve_params
 from app.results.compact import compact
 from app.api.result_body import JobResult, result_json
 

@@ -57,7 +57,7 @@ def _cases(kind: str):
 
 def _run_case(spec, params: dict, overrides: dict | None, ctx) -> dict:
     from app.kinds.base import JobFailure
-    from app.api.params import resolve_params
+    from app.service.params import resolve_params
 
     resolved = resolve_params(spec, params, overrides)
     try:

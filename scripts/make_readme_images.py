@@ -31,7 +31,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     # imported after the arguments are read: --help loads no solver and writes nothing
     from app.kinds import KINDS, PRESETS
-    from app.api.params import resolve_params
+    from app.service.params import resolve_params
     from app.results import plots
     from tests.support import RecordingContext
 

@@ -7,7 +7,7 @@ from functools import cache
 
 from app.kinds import KINDS, PRESETS
 from app.kinds.base import RunOutcome
-from app.api.params import resolve_params
+from app.service.params import resolve_params
 from tests.support import RecordingContext
 
 # Options that make a result carry more of its optional blocks, so more of it is checked.

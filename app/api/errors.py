@@ -72,6 +72,33 @@ async def validation_error_handler(request: Request, exc: Exception) -> JSONResp
     return JSONResponse(status_code=422, content={"detail": detail, "message": message})
 
 
+# The service's refusals (registered in create_app, which imports the service; typed as Starlette's handlers are)
+async def invalid_params_handler(request: Request, exc: Exception) -> JSONResponse:
+    """The service's parameter errors: the 422 of a request body that failed validation, at body.params."""
+    from app.service.params import InvalidParams
+
+    assert isinstance(exc, InvalidParams)
+    errors = [{**err, "loc": ("body", *err["loc"])} for err in exc.errors]
+    return await validation_error_handler(request, RequestValidationError(errors))
+
+
+async def refused_handler(request: Request, exc: Exception) -> JSONResponse:
+    """A submission the service did not admit (app.service.submit): a 422 with its reason."""
+    from app.service.submit import Refused
+
+    assert isinstance(exc, Refused)
+    return JSONResponse(status_code=422, content={"detail": exc.message})
+
+
+async def quota_exceeded_handler(request: Request, exc: Exception) -> JSONResponse:
+    """Over the owner's quota: a 429 saying when to try again."""
+    from app.service.quota import QuotaExceeded
+
+    assert isinstance(exc, QuotaExceeded)
+    return JSONResponse(status_code=429, headers={"Retry-After": str(exc.retry_after_s)},
+                        content={"detail": exc.message})
+
+
 async def internal_error_handler(request: Request, exc: Exception) -> JSONResponse:
     """Any unhandled exception: logged with its traceback under a request id; the client gets only the id."""
     request_id = uuid.uuid4().hex

@@ -12,7 +12,8 @@ from sqlalchemy.exc import DBAPIError, OperationalError
 from sqlalchemy.exc import TimeoutError as PoolTimeout
 
 from app.runtime.db import POOL_SIZE, get_database
-from app.api.errors import database_unavailable_handler, internal_error_handler, validation_error_handler
+from app.api.errors import (database_unavailable_handler, internal_error_handler, invalid_params_handler,
+                            quota_exceeded_handler, refused_handler, validation_error_handler)
 from app.api.limits import reject_unsafe_text
 from app.api.security_headers import SecurityHeaders
 from app.api.observability import RequestObservation
@@ -43,6 +44,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                                 metrics, presets, results, studies, usage, vehicles)  # routes read the registry
     from app.service.broker import create_publisher
     from app.api.schemas import ValidationErrorBody
+    from app.service.params import InvalidParams
+    from app.service.quota import QuotaExceeded
+    from app.service.submit import Refused
 
     settings = settings or get_settings()
     # max_body_size: FastAPI's own cap (413 on Content-Length or streamed bytes, before parsing);
@@ -57,6 +61,10 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                   responses={422: {"model": ValidationErrorBody, "description": "Invalid request: the message "
                                                                                "names the field and the rule"}})
     app.add_exception_handler(RequestValidationError, validation_error_handler)
+    # the service's refusals (app.service.submit), as the routes answered them before the service raised them
+    app.add_exception_handler(InvalidParams, invalid_params_handler)
+    app.add_exception_handler(Refused, refused_handler)
+    app.add_exception_handler(QuotaExceeded, quota_exceeded_handler)
     app.add_exception_handler(Exception, internal_error_handler)
     for exc_type in (OperationalError, DBAPIError, PoolTimeout):  # a database outage is a 503, not a 500
         app.add_exception_handler(exc_type, database_unavailable_handler)

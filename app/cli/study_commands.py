@@ -78,7 +78,7 @@ def _print_rows(rows: list[dict]) -> None:
 def cmd_study_submit(args) -> int:
     params: dict = json.loads(Path(args.params).read_text()) if args.params else {}
     body = json.loads(Path(args.file).read_text()) if args.file else {}
-    from app.api.params import deep_merge
+    from app.runtime.merge import deep_merge
 
     params = deep_merge(body.pop("params", {}) or {}, deep_merge(params, parse_set(args.set or [])))
     sweeps = [json.loads(s) for s in args.sweep] if args.sweep else body.pop("sweeps", None)

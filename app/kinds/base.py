@@ -228,7 +228,7 @@ class KindSpec:
     # (app/kinds/<kind>/headlines.py): what the CLI, the console, the job list and the report lead with.
     headlines: Callable[[dict, dict | None], list] | None = None
     # Why a stored result of this kind cannot warm-start these resolved params, (result, params) -> reason
-    # or None (app.api.warm_start: a 422 at the door); None: any succeeded job of the kind can.
+    # or None (app.service.warm_start: a 422 at the door); None: any succeeded job of the kind can.
     warm_start_misfit: Callable[[dict, dict], str | None] | None = None
 
 

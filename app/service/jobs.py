@@ -115,6 +115,19 @@ _INSERT_JOB = insert(JOBS)
 _JOB_BY_IDEMPOTENCY_KEY = select(JOBS).where(JOBS.c.idempotency_key == bindparam("key"))
 
 
+def queued_job_values(*, kind: str, params: dict, label: str | None, preset: str | None, owner: str | None,
+                      queue: str, **extra) -> dict:
+    """The columns of a new queued job (attempt 1): a submitted job's row (:func:`create_job`) and a study
+    point's (``app.service.studies``); ``extra`` sets the others (idempotency key, study and point)."""
+    now = utcnow()
+    # Marked as handed to the broker in the same INSERT (no second write per submission): if the
+    # publish then fails, mark_unpublished clears it; if the process dies in between, the
+    # re-publisher finds the job missing from the broker and sends it (app/service/recovery.py).
+    return dict(id=new_id(), kind=kind, params=params, label=label, preset=preset, status="queued",
+                progress=0.0, message="queued", attempts=1, cancel_requested=False, created_at=now,
+                owner=owner, queue=queue, published_at=now, stored_bytes=storage.params_bytes(params), **extra)
+
+
 def create_job(db: Database, *, kind: str, params: dict, label: str | None, preset: str | None,
                idempotency_key: str | None = None, request_hash: str | None = None,
                owner: str | None = None, queue: str = QUEUE_JOBS,
@@ -128,15 +141,8 @@ def create_job(db: Database, *, kind: str, params: dict, label: str | None, pres
     repeated request) and refuses it by raising (the quota check): the idempotency lookup, the quota
     and the insert are one transaction on one connection, not three.  Without either, the insert is
     one statement, atomic by itself (:meth:`Database.autocommit`: one round trip on PostgreSQL)."""
-    now = utcnow()
-    # Marked as handed to the broker in the same INSERT (no second write per submission): if the
-    # publish then fails, mark_unpublished clears it; if the process dies in between, the
-    # re-publisher finds the job missing from the broker and sends it (app/service/recovery.py).
-    values = dict(id=new_id(), kind=kind, params=params, label=label, preset=preset, status="queued",
-                  progress=0.0, message="queued", attempts=1, cancel_requested=False,
-                  idempotency_key=idempotency_key, request_hash=request_hash, created_at=now,
-                  owner=owner, queue=queue, published_at=now, request_id=request_id,
-                  stored_bytes=storage.params_bytes(params))
+    values = queued_job_values(kind=kind, params=params, label=label, preset=preset, owner=owner, queue=queue,
+                               idempotency_key=idempotency_key, request_hash=request_hash, request_id=request_id)
     # A Core INSERT: the ORM's unit of work was a fifth of a submission's CPU for one row.
     if idempotency_key is None and admit is None:
         with db.autocommit() as conn:

@@ -28,7 +28,7 @@ from sqlalchemy import select
 
 from app.runtime.db import Database
 from app.runtime.models import FINAL_STATUSES, Job, JobResult, Study, utcnow
-from app.service import storage
+from app.service import jobs, storage
 from app.service.summary import FIXED_OBJECTIVE, WARM_START_FIELD, key_numbers
 
 MAX_POINTS = 200
@@ -101,12 +101,10 @@ def expand(base_params: dict, sweeps: list[dict]) -> list[Point]:
 def _point_job(study: Study, point_index: int, params: dict, values: dict) -> Job:
     label = f"{study.label or 'study ' + study.id[:8]} [{point_index}] " + \
         ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in values.items())
-    now = utcnow()
-    # published_at in the INSERT, as app.service.jobs.create_job: the caller publishes right after the commit
-    return Job(kind=study.kind, params=params, label=label[:200], preset=study.preset, status="queued",
-               progress=0.0, message="queued", attempts=1, cancel_requested=False, created_at=now,
-               published_at=now, owner=study.owner, queue=study.queue, study_id=study.id,
-               study_index=point_index, stored_bytes=storage.params_bytes(params))
+    # the caller publishes right after the commit
+    return Job(**jobs.queued_job_values(kind=study.kind, params=params, label=label[:200], preset=study.preset,
+                                        owner=study.owner, queue=study.queue, study_id=study.id,
+                                        study_index=point_index))
 
 
 def create_study(db: Database, *, kind: str, preset: str | None, label: str | None, base_params: dict,
@@ -293,8 +291,6 @@ def _close(study: Study) -> None:
 
 def request_cancel(db: Database, study_id: str) -> list[str]:
     """Flag the study and cancel its unfinished points; the ids of the points cancelled or flagged."""
-    from app.service import jobs
-
     with db.write() as s:
         study = s.scalar(select(Study).where(Study.id == study_id).with_for_update())
         if study is None:
@@ -343,8 +339,6 @@ def summary(db: Database, study: Study) -> dict:
 
 def trade_table(db: Database, study: Study) -> list[dict]:
     """One row per point: swept values, status, the kind's key numbers, the job id (and warm start source)."""
-    from app.service import jobs
-
     all_jobs = point_jobs(db, study.id)
     with db.read() as session:
         latest = best_by_index(all_jobs, objective_values(session, study.kind, all_jobs))
@@ -368,8 +362,6 @@ def trade_table(db: Database, study: Study) -> list[dict]:
 
 def on_point_finished(db: Database, job_id: str) -> list[Job]:
     """Called by the worker when a job finished: the next point of its continuation study, if any (to publish)."""
-    from app.service import jobs
-
     job = jobs.get_job(db, job_id)
     if job is None or job.study_id is None:
         return []

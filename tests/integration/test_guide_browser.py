@@ -191,7 +191,7 @@ def test_the_schema_form_gives_back_every_presets_parameters(tab):
     for every preset of every kind the form edits (ocp is a JSON document)."""
     import json
 
-    from app.api.params import resolve_params
+    from app.service.params import resolve_params
     from app.kinds import KINDS, PRESETS
 
     url, page = tab

@@ -314,7 +314,7 @@ def test_cheapest_impulse_above_the_propellant_on_board_is_infeasible():
 def test_a_study_row_states_no_time_outside_its_bounds(upper):
     # Issue 25 item 4: fuel-vs-intercept-time rows whose allowed time ends before 8080.5 s showed the
     # impulsive answer at 8080.5 s; the impulsive method now answers within the row's own bounds.
-    from app.api.params import deep_merge
+    from app.service.params import deep_merge
     from app.kinds.intercept import PRESETS, SPEC, run
     from app.service.study_presets import STUDY_PRESETS
     from tests.support import RecordingContext

@@ -6,7 +6,7 @@ from pydantic import ValidationError
 
 from app.kinds.midcourse import PRESETS, SPEC, run
 from app.kinds.midcourse.params import MidcourseParams
-from app.api.params import deep_merge
+from app.service.params import deep_merge
 from tests.support import RecordingContext
 
 

@@ -15,7 +15,7 @@ from hypothesis import settings as hsettings
 from hypothesis import strategies as st
 
 from app.api.main import create_app
-from app.api.params import resolve_params
+from app.service.params import resolve_params
 from app.kinds import KINDS, PRESETS
 from app.kinds.ocp import SPEC, OcpParams, run
 from app.kinds.ocp.kind import cost, key_numbers

@@ -127,7 +127,7 @@ def test_the_api_model_round_trips_and_422s_name_the_field():
 
 
 def test_a_study_sweeps_a_phase_bound_by_index_or_by_name():
-    from app.api.params import resolve_params
+    from app.service.params import resolve_params
     from app.kinds import KINDS
     from app.service.studies import expand
 

@@ -7,7 +7,7 @@ from pydantic import ValidationError
 
 from app.kinds.reentry import PRESETS, SPEC, run
 from app.kinds.reentry.params import ReentryParams as Params
-from app.api.params import deep_merge
+from app.service.params import deep_merge
 from tests.support import RecordingContext
 
 

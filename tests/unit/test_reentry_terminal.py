@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from app.api.params import deep_merge
+from app.service.params import deep_merge
 from app.kinds.reentry import PRESETS, run
 from app.kinds.reentry.params import ReentryParams
 from solvers.models import shuttle as sh

@@ -20,7 +20,7 @@ from app.api.limits import count_lambert_problems, unsafe_text
 from app.api.main import create_app
 from app.runtime.migrate import upgrade
 from app.runtime.models import ApiKey, Job
-from app.api.params import resolve_params
+from app.service.params import resolve_params
 from app.runtime.settings import Settings
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 from pydantic import TypeAdapter
 
 from app.api.main import create_app
-from app.api.params import resolve_params
+from app.service.params import resolve_params
 from app.api.schemas import JobSubmission
 from app.kinds import KINDS, PRESETS
 from app.runtime.settings import Settings

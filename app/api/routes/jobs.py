@@ -3,29 +3,24 @@ from __future__ import annotations
 
 import hashlib
 import json
-import logging
 from typing import Annotated, Literal
 
 from fastapi import APIRouter, Body, Header, HTTPException, Query, Request, Response
 from fastapi.responses import JSONResponse
 
-from app.service import job_memory, jobs, quota, retention
+from app.service import jobs, retention, submit
 from app.api.access import PrincipalDep, not_found, visible_job
 from app.api.deps import DatabaseDep
-from app.kinds import KINDS, PRESETS
-from app.api.params import resolve_params
+from app.kinds import KINDS
 from app.api.submit_examples import job_examples
-from app.api.warm_start import check_warm_starts
 from app.results.compact import compact
 from app.api.result_body import JobResult, result_json
 from app.api.routes.results import forget
 from app.api.schemas import (ErrorBody, JobList, JobOut, JobStatus, JobSubmission, NotSucceededBody,
                              ValidationErrorBody)
 from app.runtime import logs
-from app.service.broker import publish_job
 
 router = APIRouter(prefix="/v1/jobs", tags=["jobs"])
-log = logging.getLogger("trajlab.api")
 # The hot routes (submit, list, get) read the database, settings and broker from request.app.state
 # instead of app.api.deps' dependencies: FastAPI solves every dependency on every request, about 5% of a
 # GET's CPU each (measured with py-spy); the principal stays a dependency (OpenAPI's security scheme).
@@ -54,49 +49,16 @@ def submit_job(
     request: Request, principal: PrincipalDep,
     idempotency_key: Annotated[str | None, Header(max_length=200, description="Repeat a submission safely: the same key and body return the same job")] = None,
 ):
-    db, settings, celery = request.app.state.db, request.app.state.settings, request.app.state.celery
-    spec = KINDS[submission.kind]
-    overrides = submission.params.model_dump(exclude_unset=True) if submission.params is not None else None
-    preset_params = PRESETS[submission.preset].params if submission.preset else None
-    params = resolve_params(spec, preset_params, overrides)
-    try:  # a job that cannot fit under the memory cap, refused before it is queued
-        job_memory.check(submission.kind, params, settings)
-    except job_memory.OverMemoryCap as exc:
-        raise HTTPException(status_code=422, detail=exc.message) from None
-    check_warm_starts(db, kind=submission.kind, params=params, principal=principal)
     request_hash = None
     if idempotency_key is not None:
         body = submission.model_dump(mode="json", exclude_unset=True)
         request_hash = hashlib.sha256(json.dumps(body, sort_keys=True).encode()).hexdigest()
-    owner = principal.owner
-    cost = quota.estimate_cost(submission.kind, params)
-    # Quotas count new work only: repeating an accepted submission returns its job even at the limit
-    # (create_job admits only a new job; lookup, quota and insert are one transaction).
-    admit = None if owner is None else (lambda s: quota.check_quota_in(s, settings, owner=owner, cost=cost))
-    try:
-        job, created = jobs.create_job(db, kind=submission.kind, params=params, label=submission.label,
-                                       preset=submission.preset, idempotency_key=idempotency_key,
-                                       request_hash=request_hash, owner=owner,
-                                       queue=quota.queue_for(submission.kind, cost, settings), admit=admit,
-                                       request_id=logs.current("request_id"))
-    except quota.QuotaExceeded as exc:
-        raise HTTPException(status_code=429, detail=exc.message,
-                            headers={"Retry-After": str(exc.retry_after_s)}) from None
-    except jobs.IdempotencyConflict:
-        # draft-ietf-httpapi-idempotency-key-header: reuse with another payload is a 422.
-        raise HTTPException(status_code=422,
-                            detail="Idempotency-Key was already used for a different request body") from None
-    if created:
-        # the API's line of this request for the job; the worker logs the same request_id with the job's lines
-        log.info("job %s submitted (kind %s, queue %s)", job.id, job.kind, job.queue)
-        try:
-            publish_job(celery, settings, job_id=job.id, attempt=job.attempts, kind=job.kind, queue=job.queue)
-        except Exception:
-            # Accepted all the same: the row is the truth; it stays queued, marked unpublished, and the
-            # recovery loop publishes it once the broker is back.  The broker's address stays in the log.
-            log.warning("job %s: broker unreachable, stored unpublished", job.id, exc_info=True)
-            jobs.mark_unpublished(db, job.id)
-            job = jobs.get_job(db, job.id) or job  # (never None: the row was just written)
+    # app.service.submit admits it; its refusals are 422s and 429s (app.api.errors)
+    job = submit.submit_job(
+        request.app.state.db, request.app.state.settings, request.app.state.celery, kind=submission.kind,
+        preset=submission.preset, label=submission.label, owner=principal.owner,
+        overrides=submission.params.model_dump(exclude_unset=True) if submission.params is not None else None,
+        idempotency_key=idempotency_key, request_hash=request_hash, request_id=logs.current("request_id"))
     return _job_response(jobs.job_json(job), status_code=202, headers={"Location": f"/v1/jobs/{job.id}"})
 
 

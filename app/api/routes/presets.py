@@ -4,7 +4,7 @@ from __future__ import annotations
 from fastapi import APIRouter, HTTPException
 
 from app.kinds import KINDS, PRESETS
-from app.api.params import resolve_params
+from app.service.params import resolve_params
 from app.api.schemas import ErrorBody, PresetOut
 
 router = APIRouter(prefix="/v1/presets", tags=["presets"])

@@ -7,18 +7,16 @@ from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Body, HTTPException, Query, Response
 from fastapi.concurrency import run_in_threadpool
-from fastapi.exceptions import RequestValidationError
 from fastapi.responses import PlainTextResponse
 from pydantic import BaseModel, Field, model_validator
 
-from app.service import job_memory, quota, retention, studies
+from app.service import retention, studies, submit
 from app.api.access import Principal, PrincipalDep
 from app.service.recovery import publish_or_defer
 from app.api.deps import CeleryDep, DatabaseDep, SettingsDep
 from app.kinds import KINDS, PRESETS
-from app.api.params import deep_merge, resolve_params
 from app.api.routes.results import forget
-from app.api.warm_start import check_warm_starts
+from app.service.params import deep_merge
 from app.service.study_presets import STUDY_PRESETS
 
 router = APIRouter(prefix="/v1/studies", tags=["studies"])
@@ -138,40 +136,10 @@ def submit_study(body: Annotated[StudySubmission, Body(openapi_examples={
                           "mode": "continuation", "label": "crossrange vs final speed"}}})],
         response: Response, db: DatabaseDep, settings: SettingsDep, celery: CeleryDep, principal: PrincipalDep):
     spec_body = _resolve(body)
-    spec = KINDS[spec_body["kind"]]
-    preset_params = PRESETS[spec_body["preset"]].params if spec_body.get("preset") else None
-    base = resolve_params(spec, preset_params, spec_body.get("params"))
-    check_warm_starts(db, kind=spec.kind, params=base, principal=principal)
-    try:
-        points = studies.expand(base, spec_body["sweeps"])
-    except KeyError as exc:
-        raise HTTPException(status_code=422, detail=f"sweeps: {exc.args[0]}") from None
-    if len(points) > studies.MAX_POINTS:
-        raise HTTPException(status_code=422, detail=f"a study has at most {studies.MAX_POINTS} points")
-    for p in points:  # every point must be a valid job before anything is stored
-        try:
-            p.params = resolve_params(spec, p.params, None)
-        except RequestValidationError as exc:
-            msg = "; ".join(f"{'.'.join(map(str, e['loc'][2:]))}: {e['msg']}" for e in exc.errors())
-            raise HTTPException(status_code=422, detail=f"point {p.index} ({p.values}): {msg}") from None
-        try:
-            job_memory.check(spec.kind, p.params, settings)
-        except job_memory.OverMemoryCap as exc:
-            raise HTTPException(status_code=422, detail=f"point {p.index} ({p.values}): {exc.message}") from None
-    # A study is as much work as its points: an independent one queues all of them at once, a
-    # continuation one runs one at a time, so it is charged its dearest point.
-    costs = [quota.estimate_cost(spec.kind, p.params) for p in points]
-    try:
-        quota.check_quota(db, settings, owner=principal.owner,
-                          cost=sum(costs) if spec_body["mode"] == "independent" else max(costs))
-    except quota.QuotaExceeded as exc:
-        raise HTTPException(status_code=429, detail=exc.message,
-                            headers={"Retry-After": str(exc.retry_after_s)}) from None
-    study, created = studies.create_study(
-        db, kind=spec.kind, preset=spec_body.get("preset"), label=spec_body.get("label"), base_params=base,
-        sweeps=spec_body["sweeps"], mode=spec_body["mode"], points=points,
-        owner=principal.owner, queue=quota.queue_for(spec.kind, max(costs), settings))
-    _publish(db, celery, settings, created)
+    # app.service.submit admits it; its refusals are 422s and 429s (app.api.errors)
+    study = submit.submit_study(db, settings, celery, kind=spec_body["kind"], preset=spec_body.get("preset"),
+                                overrides=spec_body.get("params"), sweeps=spec_body["sweeps"],
+                                mode=spec_body["mode"], label=spec_body.get("label"), owner=principal.owner)
     response.headers["Location"] = f"/v1/studies/{study.id}"
     return studies.summary(db, study)
 

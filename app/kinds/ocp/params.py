@@ -8,7 +8,7 @@ language, bounds in order, the limits) is decided once, by :func:`solvers.ocp.sp
 Why the whole-problem check hangs on :meth:`OcpParams.model_validate` rather than on a model
 validator: the ``params`` of a submission are a partial override of a preset (``{"constants":
 {"g": 1.62}}`` on ``brachistochrone``), so the problem exists only once the preset and the
-overrides are merged.  :func:`app.api.params.resolve_params` validates that merged set with
+overrides are merged.  :func:`app.service.params.resolve_params` validates that merged set with
 ``model_validate`` (so do the worker and the studies), and a malformed problem is a 422 naming
 ``params.<path>`` before anything is stored; the body's own validation checks field shapes only.
 """

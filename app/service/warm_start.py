@@ -22,11 +22,9 @@ from __future__ import annotations
 import re
 from typing import Iterator
 
-from fastapi.exceptions import RequestValidationError
-
-from app.api.access import Principal
 from app.runtime.db import Database
 from app.service import jobs
+from app.service.params import InvalidParams
 
 FIELD = "from_job"
 _JOB_ID = re.compile(r"[0-9a-f]{32}")  # the ids we issue; anything else is looked up nowhere
@@ -45,9 +43,9 @@ def warm_start_fields(params, path: tuple = ()) -> Iterator[tuple[tuple, str]]:
             yield from warm_start_fields(value, (*path, i))
 
 
-def _reason(db: Database, job_id: str, *, kind: str, principal: Principal) -> str | None:
+def _reason(db: Database, job_id: str, *, kind: str, owner: str | None) -> str | None:
     job = jobs.get_job_row(db, job_id) if _JOB_ID.fullmatch(job_id) else None
-    if job is None or not (principal.owner is None or job.owner == principal.owner):
+    if job is None or not (owner is None or job.owner == owner):
         return f"job {job_id[:64]} does not exist"
     if job.kind != kind:
         return f"job {job_id} is a {job.kind} job; a warm start needs a {kind} job"
@@ -59,21 +57,22 @@ def _reason(db: Database, job_id: str, *, kind: str, principal: Principal) -> st
 def _misfit(db: Database, job_id: str, *, kind: str, params: dict) -> str | None:
     from app.kinds import KINDS
 
-    check = getattr(KINDS.get(kind), "warm_start_misfit", None)
+    spec = KINDS.get(kind)
+    check = spec.warm_start_misfit if spec is not None else None
     if check is None:
         return None
     stored = jobs.get_result(db, job_id)
     return check(stored, params) if isinstance(stored, dict) else None
 
 
-def check_warm_starts(db: Database, *, kind: str, params: dict, principal: Principal,
-                      loc: tuple = ("body", "params")) -> None:
-    """Raise a 422 (``RequestValidationError``) for every ``from_job`` that names no usable job."""
+def check_warm_starts(db: Database, *, kind: str, params: dict, owner: str | None) -> None:
+    """Raise :class:`InvalidParams` (a 422) for every ``from_job`` that names no job ``owner`` (None: auth
+    off, every job is everyone's) can start from."""
     errors = []
     for path, job_id in warm_start_fields(params):
-        reason = _reason(db, job_id, kind=kind, principal=principal) or \
+        reason = _reason(db, job_id, kind=kind, owner=owner) or \
             _misfit(db, job_id, kind=kind, params=params)
         if reason is not None:
-            errors.append({"loc": (*loc, *path), "msg": reason, "type": "warm_start", "input": job_id})
+            errors.append({"loc": ("params", *path), "msg": reason, "type": "warm_start", "input": job_id})
     if errors:
-        raise RequestValidationError(errors)
+        raise InvalidParams(errors)
