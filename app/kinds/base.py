@@ -254,13 +254,14 @@ def json_value(x):
 
 def warm_start_from_job(ctx: JobContext, job_id: str, parse, *, field: str, what: str):
     """``parse(stored result)`` of another job as a warm start; a user-facing
-    :class:`JobFailure` naming ``field`` when the job is missing or unusable."""
+    :class:`JobFailure` (``invalid_input``) naming ``field`` when the job is missing or unusable: the
+    user's reference is wrong, not trajlab (the door checks it too, but the job may be deleted since)."""
     try:
         return parse(ctx.load_result(job_id))
     except LookupError as exc:
-        raise JobFailure("internal", f"{field}: {exc}") from None
+        raise JobFailure("invalid_input", f"{field}: {exc}") from None
     except (KeyError, TypeError, ValueError) as exc:
-        raise JobFailure("internal", f"{field}: job {job_id} has no usable {what} ({exc})") from None
+        raise JobFailure("invalid_input", f"{field}: job {job_id} has no usable {what} ({exc})") from None
 
 
 def outcome_from_status(status, result: dict | None) -> RunOutcome:
@@ -278,7 +279,7 @@ def outcome_from_status(status, result: dict | None) -> RunOutcome:
         Outcome.LIMIT_NOT_HELD: "limit_not_held",
         Outcome.TERMINAL_NOT_HELD: "terminal_not_held",
         Outcome.ACCURACY_NOT_REACHED: "accuracy_not_reached",
-    }.get(status.outcome, "internal")
+    }.get(status.outcome, "solver_failed")  # Outcome.FAILED: the solver's error, not a crash of ours (internal)
     msg = status.message or status.solver_status
     if status.solver_status and status.solver_status not in msg:
         msg = f"{status.solver_status}: {msg}"

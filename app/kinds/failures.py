@@ -29,6 +29,9 @@ WHAT = {
     "resource_limit": "The job needed more memory than one job may hold (TRAJLAB_JOB_MEMORY_MB); it was "
                       "stopped, and is not retried.",
     "worker_lost": "The worker running the job stopped (restart or crash) more often than the retry budget allows.",
+    "solver_failed": "The solver stopped on an error of its own (a numerical failure such as a NaN in the "
+                     "model, or problem data it found unusable late), neither an answer nor a verdict on the "
+                     "problem. The message gives the solver's own status.",
     "invalid_input": "A field validated but names something unusable when the job runs (e.g. a warm start "
                      "from a job that cannot serve as one).",
     "internal": "A bug in trajlab: the job hit an error nobody planned for. The message names it; please report it.",
@@ -81,6 +84,12 @@ ADVICE = {
         "Or ask the operator for a larger TRAJLAB_JOB_MEMORY_MB (fewer jobs then run at once on a worker).",
     ],
     "worker_lost": ["Re-run the job; if it happens again, tell the operator (the worker's logs say why)."],
+    "solver_failed": [
+        "Read the solver status in the message: an evaluation error (NaN or Inf) points at the model, e.g. a "
+        "square root or a division that reaches zero, or an atmosphere or table left outside its range.",
+        "Tighten the bounds that let the iterate wander there, or start from a better guess "
+        "(initial_guess.from_job).",
+    ],
     "invalid_input": ["Fix the field the message names and submit again."],
     "internal": ["Report the job id and the message; re-running will most likely fail the same way."],
     "cancelled": ["Re-run it when you want the answer."],
