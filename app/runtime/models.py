@@ -88,8 +88,9 @@ class Job(Base):
     )
 
 
-class JobResult(Base):
-    """A job's result document.  Written compressed (``packed``, in the form ``encoding`` names:
+class StoredResult(Base):
+    """A job's result document as stored (the row; the typed body the API serves is
+    ``app.api.result_body.JobResult``, the union of the kinds' result models).  Written compressed (``packed``, in the form ``encoding`` names:
     app.runtime.result_codec); rows written before revision 0006 hold it as JSON in ``data``, and are
     read as they are (never rewritten in bulk)."""
 

@@ -26,7 +26,7 @@ from app.kinds.failures import ERROR_CODES
 from app.service import storage
 from app.service.broker import QUEUE_JOBS
 from app.runtime.db import Database
-from app.runtime.models import FINAL_STATUSES, Job, JobResult, new_id, utcnow
+from app.runtime.models import FINAL_STATUSES, Job, StoredResult, new_id, utcnow
 
 JOBS = Job.metadata.tables[Job.__tablename__]  # Job.__table__, typed as the Table it is
 # A job's columns as a read-only row: the same attribute names as a Job (job.status, job.owner, ...), read by
@@ -225,7 +225,7 @@ def get_job_row(db: Database, job_id: str) -> JobRow | None:
 
 def get_result(db: Database, job_id: str) -> dict | None:
     with db.read() as s:
-        return storage.read_result(s.get(JobResult, job_id))
+        return storage.read_result(s.get(StoredResult, job_id))
 
 
 def request_cancel(db: Database, job_id: str) -> Job | None:

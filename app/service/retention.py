@@ -24,7 +24,7 @@ from sqlalchemy.orm import Session
 
 from app.service import jobs, studies
 from app.runtime.db import Database
-from app.runtime.models import FINAL_STATUSES, Job, JobResult, Study, utcnow
+from app.runtime.models import FINAL_STATUSES, Job, StoredResult, Study, utcnow
 from app.runtime.settings import Settings
 
 log = logging.getLogger("trajlab.retention")
@@ -34,7 +34,7 @@ STUDY_BATCH = 20  # a study has up to studies.MAX_POINTS points
 
 def _delete_rows(s: Session, job_ids: list[str]) -> None:
     if job_ids:
-        s.execute(delete(JobResult).where(JobResult.job_id.in_(job_ids)))
+        s.execute(delete(StoredResult).where(StoredResult.job_id.in_(job_ids)))
         s.execute(delete(Job).where(Job.id.in_(job_ids)))
 
 

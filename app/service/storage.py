@@ -16,7 +16,7 @@ from sqlalchemy.orm import Session
 
 from app.runtime import result_codec
 from app.runtime.db import Database
-from app.runtime.models import Job, JobResult, utcnow
+from app.runtime.models import Job, StoredResult, utcnow
 from app.runtime.settings import Settings
 
 MB = 1 << 20  # TRAJLAB_MAX_STORED_MB_PER_OWNER counts MiB, as the README says
@@ -43,15 +43,15 @@ def pack(result: dict) -> Packed:
 def put_result(session: Session, job: Job, packed: Packed) -> None:
     """Store ``packed`` as ``job``'s result (replacing any) and count it in ``job.stored_bytes``,
     in the caller's transaction."""
-    row = session.get(JobResult, job.id)
+    row = session.get(StoredResult, job.id)
     if row is None:
-        session.add(JobResult(job_id=job.id, packed=packed.data, encoding=packed.encoding, created_at=utcnow()))
+        session.add(StoredResult(job_id=job.id, packed=packed.data, encoding=packed.encoding, created_at=utcnow()))
     else:  # SQL NULL, not the JSON text 'null' that None would write
         row.data, row.packed, row.encoding = null(), packed.data, packed.encoding
     job.stored_bytes = params_bytes(job.params) + len(packed.data)
 
 
-def read_result(row: JobResult | None) -> dict | None:
+def read_result(row: StoredResult | None) -> dict | None:
     """The document of a stored result row, compressed or written before revision 0006."""
     return None if row is None else result_codec.decode(row.packed, row.encoding, row.data)
 

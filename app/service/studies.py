@@ -27,7 +27,7 @@ import numpy as np
 from sqlalchemy import select
 
 from app.runtime.db import Database
-from app.runtime.models import FINAL_STATUSES, Job, JobResult, Study, utcnow
+from app.runtime.models import FINAL_STATUSES, Job, StoredResult, Study, utcnow
 from app.service import jobs, storage
 from app.service.summary import FIXED_OBJECTIVE, WARM_START_FIELD, key_numbers
 
@@ -150,7 +150,7 @@ def objective_values(session, kind: str, jobs_: list[Job]) -> dict[str, float]:
     path, sense = FIXED_OBJECTIVE[kind]
     out = {}
     for job in jobs_:
-        row = session.get(JobResult, job.id) if job.status == "succeeded" else None
+        row = session.get(StoredResult, job.id) if job.status == "succeeded" else None
         try:
             value = float(get_path(storage.read_result(row) or {}, path)) if row is not None else None
         except (KeyError, TypeError, ValueError):

@@ -25,7 +25,7 @@ from app.cli.client import Client, TrajlabError
 from app.runtime import result_codec
 from app.runtime.db import get_database, make_engine
 from app.runtime.migrate import alembic_config, upgrade
-from app.runtime.models import Job, JobResult
+from app.runtime.models import Job, StoredResult
 from app.service import jobs, storage
 from tests.integration.conftest import PG_ADMIN_URL
 
@@ -82,7 +82,7 @@ def owners(service):
 def _rows(db, job_ids) -> tuple[int, int]:
     with db.read() as s:
         return (len(list(s.scalars(select(Job.id).where(Job.id.in_(job_ids))))),
-                len(list(s.scalars(select(JobResult.job_id).where(JobResult.job_id.in_(job_ids))))))
+                len(list(s.scalars(select(StoredResult.job_id).where(StoredResult.job_id.in_(job_ids))))))
 
 
 def test_a_result_is_stored_compressed_served_unchanged_counted_and_deleted_whole(owners):
@@ -94,7 +94,7 @@ def test_a_result_is_stored_compressed_served_unchanged_counted_and_deleted_whol
 
     # stored compressed, >= 5x under its JSON, and counted in jobs.stored_bytes
     with db.read() as s:
-        row, stored = s.get(JobResult, jid), s.get(Job, jid).stored_bytes
+        row, stored = s.get(StoredResult, jid), s.get(Job, jid).stored_bytes
     assert row.encoding == result_codec.ENCODING and row.data is None
     doc = storage.read_result(row)
     json_bytes = len(json.dumps(doc, separators=(",", ":")))
@@ -107,7 +107,7 @@ def test_a_result_is_stored_compressed_served_unchanged_counted_and_deleted_whol
     views = ("", "?include=scan")
     served = {v: c.get(f"/v1/jobs/{jid}/result{v}", headers=owners.h("alice")).content for v in views}
     with db.write() as s:
-        s.execute(update(JobResult).where(JobResult.job_id == jid).values(data=doc, packed=None, encoding=None))
+        s.execute(update(StoredResult).where(StoredResult.job_id == jid).values(data=doc, packed=None, encoding=None))
     assert {v: c.get(f"/v1/jobs/{jid}/result{v}", headers=owners.h("alice")).content for v in views} == served
     with db.write() as s:
         storage.put_result(s, s.get(Job, jid), storage.pack(doc))

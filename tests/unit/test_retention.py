@@ -13,7 +13,7 @@ from sqlalchemy import select, text, update
 
 from app.runtime import result_codec
 from app.runtime.migrate import alembic_config, upgrade
-from app.runtime.models import Job, JobResult, Study, utcnow
+from app.runtime.models import Job, StoredResult, Study, utcnow
 from app.runtime.settings import Settings
 from app.service import jobs, quota, retention, storage
 
@@ -85,7 +85,7 @@ def test_stored_bytes_follow_writes_and_deletes(sqlite_db):
     job_id = _finished(sqlite_db, owner="ann", result=RESULT)
     _finished(sqlite_db, owner="bob", result={"y": 1.0})
     with sqlite_db.read() as s:
-        row = s.get(JobResult, job_id)
+        row = s.get(StoredResult, job_id)
         job = s.get(Job, job_id)
         assert row.data is None and row.encoding == result_codec.ENCODING
         assert job.stored_bytes == len(row.packed) + storage.params_bytes({"p": 1})
@@ -122,7 +122,7 @@ def test_delete_job_cancels_a_running_one_and_removes_its_rows(sqlite_db):
     # the worker: its heartbeat says the job is gone (it stops), and its result is not stored
     assert jobs.heartbeat(sqlite_db, job.id, 1, progress=0.2, message="x") is None
     assert not jobs.finish(sqlite_db, c.job_id, 1, status="succeeded", result=RESULT, error=None, message="done")
-    assert _count(sqlite_db, JobResult) == 0
+    assert _count(sqlite_db, StoredResult) == 0
     assert not retention.delete_job(sqlite_db, job.id)
 
 
@@ -144,7 +144,7 @@ def test_delete_study_removes_its_points(sqlite_db):
     assert sorted(retention.delete_study(sqlite_db, study)) == sorted(points)
     assert _count(sqlite_db, Study) == 0
     assert [j.id for j in jobs.list_jobs(sqlite_db, kind=None, status=None, limit=10, offset=0)[0]] == [other]
-    assert _count(sqlite_db, JobResult) == 1
+    assert _count(sqlite_db, StoredResult) == 1
     assert retention.delete_study(sqlite_db, study) is None
 
 
