@@ -55,7 +55,7 @@ ADVICE = {
         "trajectory does not join up.",
         "Check the limits first: a limit that cannot be met often shows up as non-convergence. Solve once "
         "without it (set it to null), then put it back with a warm start from that job.",
-        "Warm-start from a succeeded job of a nearby problem (initial_guess.from_job / guess.from_job).",
+        "Warm-start from a succeeded job of a nearby problem (initial_guess.from_job).",
         "Refine or coarsen the grid (grid.intervals, transcription.intervals); widen tight bounds a little.",
     ],
     "limit_not_held": [

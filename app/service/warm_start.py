@@ -1,8 +1,7 @@
 """Warm starts checked at the door: a ``from_job`` must name a job the new one can start from.
 
 Every kind that takes a warm start names the job in a field called ``from_job``
-(``initial_guess.from_job``, ``finite_thrust.from_job``, ``guess.from_job``, and
-in any nested group a kind may add, e.g. per phase).  Before anything is stored,
+(``initial_guess.from_job`` in every kind, and in any nested group a kind may add, e.g. per phase).  Before anything is stored,
 each such field of the resolved parameters must name a job that
 
 * exists and the caller may read: the worker's rule (``worker/context.py``): a job

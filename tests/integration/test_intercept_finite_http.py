@@ -28,7 +28,7 @@ def test_preset_runs_both_methods_and_warm_starts_from_the_stored_job(service):
 
     # warm start from the stored job: same answer, one mesh, few iterations
     r2 = service.submit("intercept", preset="long-range-intercept",
-                        params={"methods": ["finite_thrust"], "finite_thrust": {"from_job": job["id"]}})
+                        params={"methods": ["finite_thrust"], "initial_guess": {"from_job": job["id"]}})
     assert r2.status_code == 202, r2.text
     job2 = service.wait(r2.json()["id"], timeout=180)
     assert job2["status"] == "succeeded", job2

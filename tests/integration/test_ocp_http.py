@@ -91,20 +91,20 @@ def test_warm_start_from_an_unknown_or_failed_job_is_a_clean_failure(service, fr
         from_job = failed["id"]
     else:
         from_job = "00000000-0000-0000-0000-000000000000"
-    resp = service.submit("ocp", preset="brachistochrone", params={"guess": {"from_job": from_job}})
+    resp = service.submit("ocp", preset="brachistochrone", params={"initial_guess": {"from_job": from_job}})
     assert resp.status_code in (202, 422), resp.text
     if resp.status_code == 422:
-        assert "guess.from_job" in resp.json()["message"]
+        assert "initial_guess.from_job" in resp.json()["message"]
         return
     done = service.wait(resp.json()["id"], timeout=120)
     assert done["status"] == "failed"
     assert done["error"]["code"] == "invalid_input", done["error"]
-    assert "guess.from_job" in done["error"]["message"] and from_job in done["error"]["message"]
+    assert "initial_guess.from_job" in done["error"]["message"] and from_job in done["error"]["message"]
 
 
 def test_warm_start_from_a_solved_job(service, brachistochrone):
     resp = service.submit("ocp", preset="brachistochrone",
-                          params={"guess": {"from_job": brachistochrone["id"]}, "transcription": {"intervals": 60}})
+                          params={"initial_guess": {"from_job": brachistochrone["id"]}, "transcription": {"intervals": 60}})
     assert resp.status_code == 202, resp.text
     done = service.wait(resp.json()["id"], timeout=180)
     assert done["status"] == "succeeded", done

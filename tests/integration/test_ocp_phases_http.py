@@ -53,7 +53,7 @@ def test_plots_and_csv_show_the_phases(service, staged):
 
 
 def test_a_warm_start_from_the_stored_phases(service, staged):
-    resp = service.submit("ocp", preset="two-stage-ascent", params={"guess": {"from_job": staged["id"]}})
+    resp = service.submit("ocp", preset="two-stage-ascent", params={"initial_guess": {"from_job": staged["id"]}})
     assert resp.status_code == 202, resp.text
     done = service.wait(resp.json()["id"], timeout=240)
     assert done["status"] == "succeeded", done
@@ -61,11 +61,11 @@ def test_a_warm_start_from_the_stored_phases(service, staged):
     assert result["warm_start"] == staged["id"]
     assert result["objective"]["value"] == pytest.approx(CASES["two-stage-ascent"]["optimum"], abs=0.5)
     # a single phase cannot start from several, nor other phases: 422s at the door naming the field and why
-    resp = service.submit("ocp", preset="brachistochrone", params={"guess": {"from_job": staged["id"]}})
+    resp = service.submit("ocp", preset="brachistochrone", params={"initial_guess": {"from_job": staged["id"]}})
     assert resp.status_code == 422, resp.text
-    assert resp.json()["detail"][0]["loc"] == ["body", "params", "guess", "from_job"]
+    assert resp.json()["detail"][0]["loc"] == ["body", "params", "initial_guess", "from_job"]
     assert "multi-phase" in resp.json()["message"]
-    resp = service.submit("ocp", preset="goddard-three-phases", params={"guess": {"from_job": staged["id"]}})
+    resp = service.submit("ocp", preset="goddard-three-phases", params={"initial_guess": {"from_job": staged["id"]}})
     assert resp.status_code == 422 and "phase names must be the same" in resp.json()["message"], resp.text
 
 

@@ -233,9 +233,9 @@ def test_a_warm_start_never_reads_another_owners_result(secure):
     assert secure.wait("alice", own["id"], ("succeeded", "failed"), timeout=120)["status"] == "succeeded"
     # bob names alice's job: it reads as a job that does not exist (a 422 at the door, issue 28), and nothing
     # of alice's is used
-    theirs = secure.submit("bob", {**brach, "params": {"guess": {"from_job": own["id"]}}})
+    theirs = secure.submit("bob", {**brach, "params": {"initial_guess": {"from_job": own["id"]}}})
     assert theirs.status_code == 422, theirs.text
-    assert theirs.json()["message"] == f"params.guess.from_job: job {own['id']} does not exist"
+    assert theirs.json()["message"] == f"params.initial_guess.from_job: job {own['id']} does not exist"
     # alice's own warm start from it works
-    mine = secure.submit("alice", {**brach, "params": {"guess": {"from_job": own["id"]}}}).json()
+    mine = secure.submit("alice", {**brach, "params": {"initial_guess": {"from_job": own["id"]}}}).json()
     assert secure.wait("alice", mine["id"], ("succeeded", "failed"), timeout=120)["status"] == "succeeded"

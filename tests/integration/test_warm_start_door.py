@@ -44,14 +44,14 @@ def donors(service):
 
 
 def test_unknown_job_is_422(service):
-    _refused(service, "intercept", {"finite_thrust": {"from_job": uuid.uuid4().hex}}, "finite_thrust.from_job",
+    _refused(service, "intercept", {"initial_guess": {"from_job": uuid.uuid4().hex}}, "initial_guess.from_job",
              "does not exist", preset="long-range-intercept")
     _refused(service, "reentry", {"initial_guess": {"from_job": "not-an-id\u00e9"}}, "initial_guess.from_job",
              "does not exist", preset="betts-max-crossrange")
 
 
 def test_failed_job_is_422(service, donors):
-    _refused(service, "intercept", {"finite_thrust": {"from_job": donors["failed"]}}, "finite_thrust.from_job",
+    _refused(service, "intercept", {"initial_guess": {"from_job": donors["failed"]}}, "initial_guess.from_job",
              "is failed; only a succeeded job", preset="long-range-intercept")
 
 
@@ -62,18 +62,31 @@ def test_other_kind_is_422(service, donors):
 
 def test_a_usable_job_is_accepted(service, donors):
     r = service.submit("intercept", preset="long-range-intercept",
-                       params={**IMPULSIVE, "finite_thrust": {"from_job": donors["succeeded"]}})
+                       params={**IMPULSIVE, "initial_guess": {"from_job": donors["succeeded"]}})
     assert r.status_code == 202, r.text
     assert service.wait(r.json()["id"], timeout=120)["status"] == "succeeded"
+
+
+def test_the_old_spelling_is_accepted_and_stored_as_the_new_one(service, donors):
+    """intercept's finite_thrust.from_job (deprecated in OpenAPI) still works: moved to initial_guess.from_job
+    before validation, so the stored params and the door's 422 name the new field."""
+    r = service.submit("intercept", preset="long-range-intercept",
+                       params={**IMPULSIVE, "finite_thrust": {"from_job": donors["succeeded"]}})
+    assert r.status_code == 202, r.text
+    stored = r.json()["params"]
+    assert stored["initial_guess"]["from_job"] == donors["succeeded"] and "from_job" not in stored["finite_thrust"]
+    assert service.wait(r.json()["id"], timeout=120)["status"] == "succeeded"
+    _refused(service, "intercept", {"finite_thrust": {"from_job": donors["failed"]}}, "initial_guess.from_job",
+             "is failed; only a succeeded job", preset="long-range-intercept")
 
 
 def test_a_study_base_is_checked_too(service, donors):
     r = service.client.post("/v1/studies", json={
         "kind": "intercept", "preset": "long-range-intercept", "mode": "independent",
-        "params": {**IMPULSIVE, "finite_thrust": {"from_job": donors["failed"]}},
+        "params": {**IMPULSIVE, "initial_guess": {"from_job": donors["failed"]}},
         "sweeps": [{"path": "intercept_time_s", "values": [8000.0, 8100.0]}]})
     assert r.status_code == 422, r.text
-    assert "params.finite_thrust.from_job: job" in r.json()["message"]
+    assert "params.initial_guess.from_job: job" in r.json()["message"]
 
 
 def test_other_owner_reads_as_unknown(service, donors):
@@ -91,11 +104,11 @@ def test_other_owner_reads_as_unknown(service, donors):
         assert bobs.status_code == 202, bobs.text
         assert service.wait(bobs.json()["id"], timeout=120)["status"] == "succeeded"
         body = {"kind": "intercept", "preset": "long-range-intercept",
-                "params": {**IMPULSIVE, "finite_thrust": {"from_job": bobs.json()["id"]}}}
+                "params": {**IMPULSIVE, "initial_guess": {"from_job": bobs.json()["id"]}}}
         before = client.get("/v1/jobs", headers=h["alice"]).json()["total"]
         r = client.post("/v1/jobs", headers=h["alice"], json=body)
         assert r.status_code == 422, r.text
-        assert r.json()["message"] == f"params.finite_thrust.from_job: job {bobs.json()['id']} does not exist"
+        assert r.json()["message"] == f"params.initial_guess.from_job: job {bobs.json()['id']} does not exist"
         assert client.get("/v1/jobs", headers=h["alice"]).json()["total"] == before
         assert client.post("/v1/jobs", headers=h["bob"], json=body).status_code == 202
         app.state.db.dispose()

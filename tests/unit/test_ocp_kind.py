@@ -233,11 +233,11 @@ def test_fuzz_never_a_500(client, text, where):
 def test_warm_start_from_an_unknown_or_unusable_job_is_a_clean_failure():
     from app.kinds.base import JobFailure
 
-    params = OcpParams.model_validate({**BRACHISTOCHRONE, "guess": {"from_job": "nope"}})
+    params = OcpParams.model_validate({**BRACHISTOCHRONE, "initial_guess": {"from_job": "nope"}})
     with pytest.raises(JobFailure) as exc:
         run(params, RecordingContext())
-    assert exc.value.code == "invalid_input" and "guess.from_job" in exc.value.message
-    params = OcpParams.model_validate({**BRACHISTOCHRONE, "guess": {"from_job": "other"}})
+    assert exc.value.code == "invalid_input" and "initial_guess.from_job" in exc.value.message
+    params = OcpParams.model_validate({**BRACHISTOCHRONE, "initial_guess": {"from_job": "other"}})
     with pytest.raises(JobFailure) as exc:
         run(params, RecordingContext(stored={"other": {"pareto_front": []}}))
     assert exc.value.code == "invalid_input" and "no ocp trajectory" in exc.value.message

@@ -25,7 +25,10 @@ def test_each_request_model_has_the_declared_fields(section):
 
 
 def test_the_params_model_holds_both_forms_and_nothing_else():
-    assert set(models.OcpParams.model_fields) == set(FIELDS["params"]) | set(FIELDS["params.phases"])
+    # the API names the top-level guess initial_guess (one warm-start spelling in every kind, issue 34
+    # item 5); `guess` stays in the model as its deprecated name (app/kinds/ocp/params.py, PARSER_GUESS)
+    assert set(models.OcpParams.model_fields) == set(FIELDS["params"]) | set(FIELDS["params.phases"]) | {
+        "initial_guess"}
     assert set(FIELDS["params.phases.guess"]) <= set(FIELDS["guess"])
 
 

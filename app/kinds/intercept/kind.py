@@ -22,7 +22,7 @@ from app.kinds.intercept.results import comparison, finite_result, impulsive_res
 from app.results.tables import columns_at
 
 # Where a new job takes a stored job's id to warm-start its finite-thrust solve (KindSpec.warm_start_field).
-WARM_START_FIELD = "finite_thrust.from_job"
+WARM_START_FIELD = "initial_guess.from_job"
 
 PAPER_NOTE = (
     "Paper 003 reports 1501.73 m/s at t_man = 4328 s (fuel 199.99 kg, g0 = 9.8 m/s^2). With the "
@@ -80,7 +80,7 @@ def run(params: InterceptParams, ctx: JobContext) -> RunOutcome:
     problem = to_problem(params)
     notes = []
     guess = None
-    job = params.finite_thrust.from_job
+    job = params.initial_guess.from_job
     if job and "finite_thrust" in params.methods:
         guess = warm_start_from_job(ctx, job, trajectory_guess, field=WARM_START_FIELD,
                                     what="finite-thrust trajectory")

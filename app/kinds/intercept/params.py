@@ -10,6 +10,7 @@ from typing import Literal
 from pydantic import Field, field_validator, model_validator
 
 from app.kinds.base import StrictModel
+from app.kinds.renamed import move_renamed
 from solvers.astro.earth import AE_EARTH, MU_EARTH
 from solvers.constants import G0_MPS2
 
@@ -100,7 +101,7 @@ class InterceptPorkchop(StrictModel):
 
 
 class InterceptFiniteThrust(StrictModel):
-    """Finite-thrust method: collocation mesh, accuracy, warm start."""
+    """Finite-thrust method: collocation mesh and accuracy (its warm start: initial_guess.from_job)."""
 
     nodes_per_segment: int = Field(10, ge=4, le=40, description="LGL nodes per collocation segment",
                                    examples=[10])
@@ -112,6 +113,14 @@ class InterceptFiniteThrust(StrictModel):
                                     "trajectory misses the target by less than this", examples=[100.0])
     max_refinements: int = Field(3, ge=0, le=6, description="Mesh refinements at most", examples=[3])
     max_iterations: int = Field(500, ge=1, le=5000, description="IPOPT iterations per mesh", examples=[500])
+    # the old spelling of initial_guess.from_job, moved there before validation (app.kinds.renamed)
+    from_job: str | None = Field(None, deprecated="use initial_guess.from_job", exclude=True,
+                                 description="Deprecated: initial_guess.from_job", examples=[None])
+
+
+class InterceptGuess(StrictModel):
+    """The finite-thrust method's initial guess: the impulsive answer, or a stored intercept result."""
+
     from_job: str | None = Field(None, description="Warm start from this succeeded intercept job's "
                                  "finite-thrust trajectory instead of the impulsive answer", examples=[None])
 
@@ -141,7 +150,14 @@ class InterceptParams(StrictModel):
     porkchop: InterceptPorkchop = Field(default_factory=InterceptPorkchop,
                                      description="Impulsive method: optional porkchop map")
     finite_thrust: InterceptFiniteThrust = Field(default_factory=InterceptFiniteThrust,
-                                              description="Finite-thrust method: mesh, accuracy, warm start")
+                                              description="Finite-thrust method: mesh and accuracy")
+    initial_guess: InterceptGuess = Field(default_factory=InterceptGuess,
+                                          description="Finite-thrust method: warm start")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _renamed(cls, data):
+        return move_renamed(data, ("finite_thrust", "from_job"), ("initial_guess", "from_job"))
 
     @field_validator("methods")
     @classmethod

@@ -48,7 +48,7 @@ def run(params: OcpParams, ctx: JobContext) -> RunOutcome:
 
     t_start = time.perf_counter()
     problem = params.problem
-    from_job = params.guess.from_job
+    from_job = params.initial_guess.from_job
     guess = load_warm_start(ctx, from_job, problem) if from_job else None
     try:
         sol = solver.solve(problem, initial_guess=guess, on_progress=ctx.progress, should_stop=ctx.should_stop)

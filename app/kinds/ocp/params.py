@@ -17,10 +17,11 @@ from __future__ import annotations
 from dataclasses import fields
 from typing import Any, Literal
 
-from pydantic import Field, PrivateAttr, field_validator
+from pydantic import Field, PrivateAttr, field_validator, model_validator
 from pydantic_core import PydanticCustomError, ValidationError
 
 from app.kinds.base import StrictModel
+from app.kinds.renamed import move_renamed
 
 NAME_PATTERN = r"^[A-Za-z_][A-Za-z0-9_]*$"
 MAX_NAME_CHARS = 64
@@ -178,7 +179,7 @@ class OcpPhaseTime(StrictModel):
 
 
 class OcpPhaseGuess(StrictModel):
-    """A phase's initial guess: straight lines (a warm start is params.guess.from_job, for all phases)."""
+    """A phase's initial guess: straight lines (a warm start is params.initial_guess.from_job, for all phases)."""
 
     states: dict[str, list[float]] = Field(default_factory=dict, description="state name -> [first, last]")
     controls: dict[str, list[float]] = Field(default_factory=dict, description="control name -> [first, last]")
@@ -250,7 +251,11 @@ class OcpParams(StrictModel):
                                            "your overrides are merged)", examples=[{"sense": "minimize",
                                                                                     "expr": "tf"}])
     transcription: OcpTranscription = Field(default_factory=OcpTranscription, description="Transcription")
-    guess: OcpGuess = Field(default_factory=OcpGuess, description="Initial guess or warm start")
+    initial_guess: OcpGuess = Field(default_factory=OcpGuess, description="Initial guess or warm start "
+                                    "(initial_guess.from_job)")
+    # the old name of initial_guess, moved there before validation (app.kinds.renamed)
+    guess: OcpGuess | None = Field(None, deprecated="use initial_guess", exclude=True,
+                                   description="Deprecated: initial_guess")
     accuracy: float | None = Field(None, gt=0, lt=1, description="Target relative error of the re-propagated "
                                    "states (mesh refinement); null: the grid as given", examples=[None])
     accuracy_required: bool = Field(True, description="With `accuracy`: true fails the job as "
@@ -269,6 +274,11 @@ class OcpParams(StrictModel):
                                    examples=[[["x", "y"]]])
 
     _problem: Any = PrivateAttr(None)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _renamed(cls, data):
+        return move_renamed(data, ("guess",), ("initial_guess",))
 
     @classmethod
     def model_validate(cls, obj: Any, **kwargs) -> OcpParams:
@@ -320,14 +330,22 @@ def _setting_of(reason: str) -> str:
     return f"{reason} (setting {', '.join(settings)})" if settings else reason
 
 
+# The parser (solvers.ocp) reads the problem-level guess as "guess"; the API's name is initial_guess.
+PARSER_GUESS = "guess"
+
+
 def _loc(path: str) -> tuple:
     parts = [p for p in path.split(".") if p]
     if parts and parts[0] == "params":
         parts = parts[1:]
+    if parts and parts[0] == PARSER_GUESS:
+        parts[0] = "initial_guess"
     return tuple(int(p) if p.isdigit() else p for p in parts)
 
 
 def _get(data: Any, loc: tuple) -> Any:
+    if loc and loc[0] == "initial_guess":  # the parser's data: its own key
+        loc = (PARSER_GUESS, *loc[1:])
     for part in loc:
         if isinstance(data, dict) and part in data or isinstance(data, list) and isinstance(part, int) and part < len(data):
             data = data[part]
@@ -351,6 +369,7 @@ def check_problem(params: OcpParams, settings=None):
     if params.phases is not None:
         data = _multiphase_data(params)
     else:
+        data[PARSER_GUESS] = data.pop("initial_guess")
         data.pop("phases", None)
         if data.pop("links", None):
             _fail(("links",), "links relate phases: give params.phases", data)
@@ -369,7 +388,7 @@ def _multiphase_data(params: OcpParams) -> dict:
     data = params.model_dump(mode="json", exclude_none=True)
     defaults = OcpParams().model_dump(mode="json", exclude_none=True)
     out = {k: v for k, v in data.items() if k in ("phases", "objective") or v != defaults.get(k)}
-    guess = {k: v for k, v in (out.pop("guess", None) or {}).items() if v not in ({}, [])}
+    guess = {k: v for k, v in (out.pop("initial_guess", None) or {}).items() if v not in ({}, [])}
     if guess:
-        out["guess"] = guess
+        out[PARSER_GUESS] = guess
     return out

@@ -1,4 +1,4 @@
-"""Warm starts of the ``ocp`` kind (``guess.from_job``), one rule for one phase and several.
+"""Warm starts of the ``ocp`` kind (``initial_guess.from_job``), one rule for one phase and several.
 
 A stored result starts a problem of the same form: a problem posed as one phase starts from a
 single-phase result (its ``trajectory``), one of several phases from a multi-phase result with the
@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from app.kinds.base import JobContext, JobFailure
 
-WARM_START_FIELD = "guess.from_job"
+WARM_START_FIELD = "initial_guess.from_job"
 
 
 def _stored_names(stored: dict) -> list:
