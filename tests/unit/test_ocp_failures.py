@@ -4,10 +4,12 @@ names with their worst values and times, an overflow from the user's problem as 
 Real solves through the kind's ``run``, as a worker runs it."""
 from __future__ import annotations
 
+import copy
 import re
 
 from app.kinds.failures import explain
 from app.kinds.ocp import OcpParams, run
+from solvers.ocp import PRESETS
 from tests.support import RecordingContext
 
 # Words of the other kinds' advice (the reentry heating limit, its terminal_check, the robust kind's
@@ -67,3 +69,15 @@ def test_an_infeasible_problem_names_its_entries_their_worst_values_and_times():
     assert explained is not None
     advice = " ".join(explained["advice"])
     assert "floor" in advice and not FOREIGN.search(advice), advice
+
+
+def test_an_unnamed_entry_of_a_later_phase_is_named_by_its_field_path_and_phase():
+    body = copy.deepcopy(PRESETS["goddard-three-phases"]["params"])
+    phase = body["phases"][1]
+    assert not phase.get("path")          # so the entry added is path[0] of phase 1
+    phase["path"] = [{"expr": phase["states"][0]["name"], "lower": 1e6}]     # far above any value it takes
+    error = fail(body)
+    assert error["code"] == "infeasible"
+    assert f"path constraint 'phases[1].path[0]' in phase {phase['name']} is " in error["message"], error["message"]
+    worst = error["details"]["violations"][0]
+    assert worst["name"] == "phases[1].path[0]" and worst["phase"] == phase["name"] and worst["value"] < 1e6
