@@ -105,6 +105,8 @@ def worst_defect(problem, nlp, checks) -> str | None:
     interval's first node), in words; None when every interval joins up or none can be flown."""
     worst: tuple[float, str] | None = None
     for ph, b, chk in zip(problem.phases, nlp.blocks, checks):
+        if not chk.ok:       # the whole re-flight failed its call cap: the per-interval one has none, skip it
+            continue
         try:
             err = np.asarray(chk.errors["state"](), float)
         except (ValueError, ArithmeticError, RuntimeError):
