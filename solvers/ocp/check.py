@@ -14,6 +14,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from solvers.ocp.optimality import checks as optimality_checks
+from solvers.ocp.optimality import costates, hamiltonian
 from solvers.ocp.scaling import Attempt, Numbers
 from solvers.ocp.terminal import TERMINAL_TOLERANCE, terminal_checks
 from solvers.ocp.verify import Verification, local_errors, verify
@@ -56,9 +58,12 @@ def transcription_words(grid) -> dict:
             "segment_nodes": None if grid.segment_nodes is None else list(grid.segment_nodes)}
 
 
-def check_phase(block, num: Numbers, z: np.ndarray, *, t0: float, agreement: float, single: bool) -> PhaseCheck:
+def check_phase(block, num: Numbers, z: np.ndarray, *, t0: float, agreement: float, single: bool,
+                mu: np.ndarray | None = None) -> PhaseCheck:
     """Phase ``block`` (:class:`solvers.ocp.trajectory.Block`) of the answer whose phase columns are ``z``,
-    starting at ``t0``: re-flown, held to its limits and terminal conditions, reported."""
+    starting at ``t0``: re-flown, held to its limits and terminal conditions, reported; ``mu``: the
+    multipliers of its defect rows, for the costates and the optimality checks
+    (:mod:`solvers.ocp.optimality`)."""
     nlp, fns = block.nlp, block.nlp.fns
     prob = block.problem
     prob = replace(prob, phase=replace(prob.phase, time=replace(prob.phase.time, initial=t0)))
@@ -85,7 +90,15 @@ def check_phase(block, num: Numbers, z: np.ndarray, *, t0: float, agreement: flo
     if ph.expressions:
         E = np.asarray(fns.named.map(t_nodes.size)(t_nodes[None, :], att.X, U, att.theta, c, t0, att.tf))
         traj.update({n: E[i] for i, (n, _) in enumerate(ph.expressions)})
-    report = {"name": block.name, "t0": t0, "tf": att.tf,
+    lam = None if mu is None else costates(nlp=nlp, num=num, att=att, mu=mu, t_nodes=t_nodes, c=c, t0=t0)
+    extra = {}
+    if lam is not None:
+        H, size = hamiltonian(nlp=nlp, att=att, lam=lam, U=U, t_nodes=t_nodes, c=c, t0=t0)
+        verification["optimality"] = optimality_checks(problem=prob, nlp=nlp, att=att, lam=lam, U=U, t_nodes=t_nodes,
+                                                       c=c, t0=t0, H=H, size=size, single=single,
+                                                       tolerance=agreement)
+        extra = {"costates": {s.name: lam[i] for i, s in enumerate(ph.states)}, "hamiltonian": H}
+    report = {"name": block.name, "t0": t0, "tf": att.tf, **extra,
               "initial": {s.name: float(att.X[i, 0]) for i, s in enumerate(ph.states)},
               "final": {s.name: float(att.X[i, -1]) for i, s in enumerate(ph.states)},
               "trajectory": traj, "verification": verification, "solver": transcription_words(grid)}

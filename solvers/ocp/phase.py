@@ -41,7 +41,7 @@ from solvers.transcription.nlp import NLPSolver, cached_solver
 BLOCKS = True
 
 
-def _ms_interval(fns: PhaseFunctions, grid: Grid) -> ca.Function:
+def ms_interval(fns: PhaseFunctions, grid: Grid) -> ca.Function:
     """RK4 over one interval: (xa, ua, ub, ta, h, theta, c, t0, tf) -> (x_end, quadrature)."""
     nx, nu, nq = fns.nx, fns.nu, fns.nq
     xa, ua, ub = ca.SX.sym("xa", nx), ca.SX.sym("ua", nu), ca.SX.sym("ub", nu)
@@ -186,7 +186,7 @@ class PhaseNLP:
             linear = g.control == "linear"
             xa, xb = ca.SX.sym("xa", nx), ca.SX.sym("xb", nx)
             ua, ub = ca.SX.sym("ua", nu), ca.SX.sym("ub", nu)
-            xe, q = _ms_interval(fns, g)(xa * P["xs"], ua * P["us"], (ub if linear else ua) * P["us"],
+            xe, q = ms_interval(fns, g)(xa * P["xs"], ua * P["us"], (ub if linear else ua) * P["us"],
                                          ta, h, theta, c, t0, tf)
             w = ca.vertcat(tfz, thz, xa, ua, *([ub] if linear else []), xb)
             f = objective * q if fns.nq else ca.SX(0)

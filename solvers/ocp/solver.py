@@ -75,6 +75,8 @@ class Placed:
         self.lbg, self.ubg = np.concatenate(lbg + [elo]), np.concatenate(ubg + [ehi])
         self.z0 = np.clip(self.z0, self.lbz, self.ubz)
         offsets = np.cumsum([0] + [len(n.lbg) for n in self.nums])
+        # each phase's defect rows in g (its first rows, multiple shooting: nx per interval), for the costates
+        self.defect_rows = [slice(o, o + b.nlp.fns.nx * b.nlp.grid.intervals) for b, o in zip(nlp.blocks, offsets)]
         # each phase's path rows in g, for the limit rounds
         self.path_rows = [(None if n.path_slices is None else slice(o + n.path_slices.start, o + n.path_slices.stop),
                            len(b.problem.path), b.nlp.grid) for n, b, o in zip(self.nums, nlp.blocks, offsets)]
@@ -135,9 +137,10 @@ class OcpSolve:
         """Every phase of the answer ``res`` checked on its own (:func:`solvers.ocp.check.check_phase`)."""
         agreement = problem.accuracy or AGREEMENT_TOLERANCE     # with accuracy, the states must agree to it
         out = []
-        for b, num in zip(nlp.blocks, placed.nums):
+        for b, num, rows in zip(nlp.blocks, placed.nums, placed.defect_rows):
             t0 = b.problem.phase.time.initial if b.t0_col is None else float(res.x[b.t0_col] * num.t_scale)
-            out.append(check_phase(b, num, res.x[b.colmap], t0=t0, agreement=agreement, single=problem.single))
+            out.append(check_phase(b, num, res.x[b.colmap], t0=t0, agreement=agreement, single=problem.single,
+                                   mu=res.lam_g[rows]))
         return out
 
     def hold_limits(self, problem, nlp, warm, placed: Placed, res, checks):

@@ -36,6 +36,12 @@ def headlines(result: dict, params: dict | None = None) -> list[Headline]:
     terminal = terminal_headline(v)
     if terminal:
         out.append(terminal)
+    optimality = v.get("optimality")
+    if isinstance(optimality, dict) and isinstance(optimality.get("held"), bool):
+        failed = [k for k, c in (optimality.get("checks") or {}).items() if not c.get("held")]
+        out.append(verdict("optimality", held=optimality["held"], value=None, unit="",
+                           detail=optimality.get("message") or "",
+                           words=("verified", f"not verified: {', '.join(failed)}")))
     if isinstance(v.get("agrees"), bool):
         out.append(verdict("re-flight", held=v["agrees"], value=v.get("max_state_difference_scaled_overall"),
                            unit="", detail=v.get("message") or "", words=("agrees", "disagrees")))

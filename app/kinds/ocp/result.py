@@ -105,6 +105,27 @@ class OcpResultLinkCheck(ResultModel):
     phases: list[str] | None = Field(None, description="The phases it names")
 
 
+class OcpResultOptimalityCheck(ResultModel):
+    """One necessary condition of optimality, measured against the size of the Hamiltonian's terms."""
+
+    value: Num = Field(None, description="The condition's residual, relative to the size of H's terms")
+    tolerance: Num = Field(None, description="The largest residual counted as held (the answer's agreement "
+                           "tolerance: its accuracy, or 1%)")
+    held: bool | None = Field(None, description="value <= tolerance")
+    expected: Num = Field(None, description="hamiltonian_final: the value H(tf) must take")
+    nodes: int | None = Field(None, description="stationarity: the nodes checked (every control and path "
+                              "constraint strictly inside its bounds)")
+
+
+class OcpResultOptimality(ResultModel):
+    """Evidence that the answer is an optimum: each necessary condition that applies."""
+
+    held: bool | None = Field(None, description="Every condition checked held")
+    checks: dict[str, OcpResultOptimalityCheck] | None = Field(
+        None, description="hamiltonian_constant, hamiltonian_final, stationarity: those that apply")
+    message: str | None = Field(None, description="Which conditions were checked and which failed")
+
+
 class OcpResultVerification(ResultModel):
     """The controls re-flown by an independent integrator on a dense grid, against the solution."""
 
@@ -132,6 +153,8 @@ class OcpResultVerification(ResultModel):
     message: str | None = Field(None, description="The integrator's message (empty when ok)")
     links: dict[str, OcpResultLinkCheck] | None = Field(
         None, description="Several phases: each stated link's value at the solution against its bounds")
+    optimality: OcpResultOptimality | None = Field(
+        None, description="Necessary conditions of optimality from the costates (multiple shooting)")
 
 
 class OcpResultPhaseSolver(ResultModel):
@@ -142,6 +165,10 @@ class OcpResultPhaseSolver(ResultModel):
     control: str | None = Field(None, description="linear, constant or polynomial")
     substeps: int | None = Field(None, description="multiple_shooting: RK4 steps per interval")
     nodes_per_interval: int | None = Field(None, description="lgl: collocation nodes per interval")
+    boundaries: list[float] | None = Field(None, description="A non-uniform mesh: its interval boundaries in "
+                                           "normalized time (null: equal intervals)")
+    segment_nodes: list[int] | None = Field(None, description="lgl on a non-uniform mesh: the nodes of each "
+                                            "interval")
 
 
 class OcpResultPhase(ResultModel):
@@ -154,6 +181,10 @@ class OcpResultPhase(ResultModel):
     final: dict[str, Num] = Field(description="state name -> value at the phase's tf")
     trajectory: dict[str, Series] = Field(description="`t` and the phase's states, controls and expressions "
                                           "at its nodes")
+    costates: dict[str, Series] | None = Field(
+        None, description="state name -> its costate at the nodes (of the objective as minimised), from the "
+        "NLP's multipliers (multiple shooting)")
+    hamiltonian: Series | None = Field(None, description="The Hamiltonian at the nodes")
     verification: OcpResultVerification | None = Field(None, description="The phase's controls re-flown from "
                                                        "its own initial state on a dense grid")
     solver: OcpResultPhaseSolver | None = Field(None, description="The phase's transcription")
@@ -173,6 +204,10 @@ class OcpResult(ResultModel):
     trajectory: dict[str, Series] | None = Field(
         None, description="`t` and every state, control and expression at the nodes, equal-length arrays; "
         "null where not finite (several phases: in each phase)")
+    costates: dict[str, Series] | None = Field(
+        None, description="state name -> its costate at the nodes (of the objective as minimised), from the "
+        "NLP's multipliers (multiple shooting)")
+    hamiltonian: Series | None = Field(None, description="The Hamiltonian at the nodes")
     phases: list[OcpResultPhase] | None = Field(None, description="Several phases: one block per phase, in "
                                                 "time order; absent for a single phase")
     units: dict[str, str] = Field(default_factory=dict, description="name -> unit, for the names declared "
@@ -192,10 +227,18 @@ def _map(d) -> dict:
     return {str(k): json_float(v) if v is not None else None for k, v in (d or {}).items()}
 
 
+def _optimality(p: dict) -> dict:
+    """The phase's costates and Hamiltonian at the nodes, where estimated (multiple shooting)."""
+    if p.get("costates") is None:
+        return {}
+    return {"costates": {str(k): json_value(v) for k, v in p["costates"].items()},
+            "hamiltonian": json_value(p["hamiltonian"])}
+
+
 def _phase(p: dict) -> dict:
     return {"name": p["name"], "t0": json_float(p["t0"]), "tf": json_float(p["tf"]),
             "initial": _map(p["initial"]), "final": _map(p["final"]),
-            "trajectory": {str(k): json_value(v) for k, v in p["trajectory"].items()},
+            "trajectory": {str(k): json_value(v) for k, v in p["trajectory"].items()}, **_optimality(p),
             "verification": json_value(p["verification"]), "solver": json_value(p["solver"])}
 
 
@@ -217,7 +260,8 @@ def build_result(sol, params, *, wall_time_s: float, warm_start: str | None = No
         "t0": json_float(sol.t0), "tf": json_float(sol.tf),
         "initial": phases[0]["initial"], "final": phases[-1]["final"],
         "parameters": _map(sol.parameters),
-        **({"trajectory": phases[0]["trajectory"]} if sol.single else {"phases": phases}),
+        **({"trajectory": phases[0]["trajectory"], **_optimality(sol.phases[0])} if sol.single
+           else {"phases": phases}),
         "units": {d.name: d.unit for d in declared if d.unit},
         "verification": json_value(sol.verification),
         "solver": solver,
