@@ -12,8 +12,8 @@ from app.kinds.ocp.warm_start import WARM_START_FIELD
 
 INVALID_NUMBER = "Invalid_Number_Detected"    # IPOPT's word for an overflow or NaN it was handed
 
-_BETTER_GUESS = (f"Start nearer the answer: guess.states and guess.controls (first and last values), or "
-                 f"{WARM_START_FIELD} from a solved nearby problem (a shorter horizon, a looser constraint).")
+_BETTER_GUESS = ("Start nearer the answer: initial_guess.states and initial_guess.controls (first and last "
+                 f"values), or {WARM_START_FIELD} from a solved nearby problem (a shorter horizon, a looser constraint).")
 _SCALE = ("Give each state and control a scale (states[].scale) and the bounds it physically keeps "
           "(lower, upper), so no iterate can wander where an expression overflows or is undefined.")
 
