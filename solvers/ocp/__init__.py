@@ -14,13 +14,14 @@ dataclasses: :class:`OcpProblem` of named phases, each a ``PhaseProblem`` to the
 ``readers`` (single values, the namespace of names, the size limits), ``spec`` (params ->
 :class:`OcpProblem`: what the phases share, the one-phase case, several phases), ``phase_spec`` (one
 phase's params -> its ``PhaseProblem``, the same for both forms), ``phases_spec`` (what only several
-phases have: names, windows in time, links), ``cases`` (presets with published optima).  With CasADi: ``symbolic`` (tree -> SX, the phase's functions cached per structure),
+phases have: names, windows in time, links), ``shape`` (the fields of each section of the params,
+declared once), ``cases`` (presets with published optima).  With CasADi: ``symbolic`` (tree -> SX, the phase's functions cached per structure),
 ``grid`` (where a phase's nodes sit), ``phase`` (one phase -> its NLP elements, multiple shooting or
 LGL, block derivatives), ``trajectory`` (the phases' blocks and their events in one cached NLP; one
 phase is its own NLP), ``scaling`` (a phase's scales, bounds and parameter vector; its answer
 unpacked), ``guess`` (a phase's initial guess: straight lines or a stored answer), ``verify`` (the
 DOP853 re-flight), ``terminal`` (final values that hold on the re-flight), ``check`` (one phase of an
-answer checked and reported), ``limits`` (path limits tightened where the re-flight exceeds them),
+answer checked and reported), ``optimality`` (its costates, Hamiltonian and necessary conditions), ``limits`` (path limits tightened where the re-flight exceeds them),
 ``refine`` (every phase's grid refined to ``accuracy``, or on a terminal miss), ``solution`` (the
 solution and its report), ``solver`` (:class:`solvers.ocp.solver.OcpSolve`, the loop, and
 :func:`solve`).
