@@ -9,3 +9,32 @@ class RecordingContext(InProcessContext):
 
     def __init__(self, stored: dict | None = None, stop_after: int | None = None):
         super().__init__(stored, stop_after, job_id="test")
+
+
+# How long a freshly started service process may take to answer.  It is a wait for a state, not a speed
+# bound: the API's start imports CasADi-free FastAPI in 2-3 s on a quiet machine and took 46 s at load 14
+# on 2 cores (a 60 s bound failed there).  A process that exits fails the wait at once, with its log.
+START_TIMEOUT_S = 300.0
+
+
+def wait_serving(url: str, *, proc, what: str, log=None, timeout: float = START_TIMEOUT_S):
+    """The first answer of ``url`` (any HTTP status) from the process ``proc`` (a ``subprocess.Popen``),
+    polled until ``timeout``; an assertion naming ``what`` (and the tail of ``log``, a path) when the process
+    exits first or the time runs out."""
+    import time
+    from pathlib import Path
+
+    import httpx
+
+    def tail() -> str:
+        return Path(log).read_text(errors="replace")[-3000:] if log is not None and Path(log).exists() else ""
+
+    deadline = time.monotonic() + timeout
+    while True:
+        assert proc.poll() is None, f"{what} exited with {proc.returncode} before answering\n{tail()}"
+        try:
+            return httpx.get(url, timeout=5)
+        except httpx.HTTPError:
+            pass
+        assert time.monotonic() < deadline, f"{what} did not answer {url} within {timeout:.0f} s\n{tail()}"
+        time.sleep(0.3)

@@ -10,6 +10,7 @@ import uuid
 import pytest
 
 from app.runtime.migrate import check
+from tests.support import wait_serving
 
 pytestmark = pytest.mark.integration
 
@@ -135,14 +136,7 @@ def test_production_process_commands(service, pg_url, redis_url):
     try:
         import httpx
 
-        deadline = time.monotonic() + 60
-        while True:
-            try:
-                r = httpx.get(f"http://127.0.0.1:{port}/readyz", timeout=2)
-                break
-            except httpx.HTTPError:
-                assert time.monotonic() < deadline, "trajlab api did not come up"
-                time.sleep(0.3)
+        r = wait_serving(f"http://127.0.0.1:{port}/readyz", proc=api, what="trajlab api")
         body = r.json()  # every component up, the recovery heartbeat included (app.api.routes.health)
         assert r.status_code == 200 and body["status"] == "ready" and {"database", "broker", "recovery"} <= set(body)
         assert all(v == "up" for k, v in body.items() if k != "status"), body

@@ -17,6 +17,7 @@ from pydantic import Field
 
 from app.kinds.base import JobContext, KindSpec, MemoryModel, RunOutcome, StrictModel
 from app.results.tables import columns_at
+from tests.support import wait_serving
 
 KIND = "throwaway"
 
@@ -56,7 +57,6 @@ def stack(tmp_path_factory):
     import os
     import subprocess
     import sys
-    import time
     import uuid
 
     import httpx
@@ -99,15 +99,8 @@ def stack(tmp_path_factory):
     spawn("api", [sys.executable, "-m", "app.cli.commands", "api", "--host", "127.0.0.1", "--port", str(port)])
     client = httpx.Client(base_url=f"http://127.0.0.1:{port}", headers={"Authorization": f"Bearer {key}"},
                           timeout=30)
-    deadline = time.monotonic() + 90
-    while True:
-        try:
-            if client.get("/healthz").status_code == 200:
-                break
-        except httpx.HTTPError:
-            pass
-        assert time.monotonic() < deadline, f"trajlab api did not come up (log {logs / 'api.log'})"
-        time.sleep(0.3)
+    wait_serving(f"http://127.0.0.1:{port}/healthz", proc=procs[-1], what="trajlab api",
+                 log=logs / "api.log")
     try:
         yield client, start_worker, logs
     finally:
