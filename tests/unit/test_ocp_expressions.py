@@ -8,7 +8,6 @@ from __future__ import annotations
 import copy
 import subprocess
 import sys
-import time
 
 import pytest
 from hypothesis import given, settings
@@ -42,10 +41,8 @@ def with_dynamics(expr: str, state: str = "v") -> dict:
 
 
 def rejected(body: dict, path: str, *words: str) -> OcpInputError:
-    t = time.perf_counter()
     with pytest.raises(OcpInputError) as info:
         parse_problem(body)
-    assert time.perf_counter() - t < 1.0
     err = info.value
     assert err.path == path, (err.path, err.reason)
     assert str(err) == f"{err.path}: {err.reason}"

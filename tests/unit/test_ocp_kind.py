@@ -5,7 +5,6 @@ warm starts fail cleanly; cost, queue, key numbers and plots of a result."""
 from __future__ import annotations
 
 import copy
-import time
 from pathlib import Path
 
 import pytest
@@ -72,11 +71,8 @@ def stored(client) -> int:
 
 def submit_422(client, payload: dict) -> dict:
     before = stored(client)
-    t0 = time.perf_counter()
     r = client.post("/v1/jobs", json=payload)
-    elapsed = time.perf_counter() - t0
     assert r.status_code == 422, r.text
-    assert elapsed < 1.0, f"{elapsed:.2f} s"
     assert stored(client) == before, "a refused problem was stored"
     return r.json()
 
