@@ -56,6 +56,7 @@ def site():
     return SITE
 
 
+@pytest.mark.slow
 def test_the_guide_builds_strict_with_every_page_of_the_nav(site):
     for page in ("tutorials/reentry", "tutorials/robust_reentry", "tutorials/midcourse", "tutorials/intercept",
                  "tutorials/ocp", "vehicle", "failures", "production", "reference/api"):

@@ -21,6 +21,7 @@ def _number(text: str) -> float:
     return float(re.search(r"(-?[\d,]+\.?\d*(?:e[-+]\d+)?)", text).group(1).replace(",", ""))
 
 
+@pytest.mark.slow
 def test_reentry_heat_limited_says_crossrange_and_that_the_limit_held():
     lines, result = _texts("betts-max-crossrange-heat-limited")
     first = lines[0]
@@ -36,6 +37,7 @@ def test_reentry_heat_limited_says_crossrange_and_that_the_limit_held():
                for h in lines)
 
 
+@pytest.mark.slow
 def test_robust_reentry_leads_with_the_monte_carlo_kept_share():
     lines, result = _texts("robust-max-crossrange")
     mc = next(h for h in lines if h["name"] == "Monte Carlo heating kept")
@@ -47,6 +49,7 @@ def test_robust_reentry_leads_with_the_monte_carlo_kept_share():
     assert lines[0]["unit"] == "deg" and lines[0]["value"] == result["objective"]["value"]
 
 
+@pytest.mark.slow
 def test_midcourse_front_size_and_best_delta_v():
     lines, result = _texts("upper-stage-two-corrections")
     assert lines[0]["text"] == f"Pareto front {len(result['pareto_front'])} points"
@@ -54,6 +57,7 @@ def test_midcourse_front_size_and_best_delta_v():
     assert best["value"] == min(p["delta_v_mps"] for p in result["pareto_front"]) and best["unit"] == "m/s"
 
 
+@pytest.mark.slow
 def test_intercept_each_method_with_delta_v_and_propellant():
     lines, result = _texts("long-range-intercept")
     for row in result["comparison"]:
@@ -94,6 +98,7 @@ def test_every_api_error_code_has_a_meaning_and_advice():
     assert set(get_args(ErrorCode)) <= set(WHAT) and set(WHAT) == set(ADVICE)
 
 
+@pytest.mark.slow
 def test_the_console_summary_of_a_succeeded_and_a_failed_job(tmp_path):
     from fastapi.testclient import TestClient
 

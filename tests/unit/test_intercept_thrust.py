@@ -66,6 +66,7 @@ def test_casadi_and_numpy_dynamics_agree():
     np.testing.assert_allclose(f_ca, f_np, rtol=1e-13, atol=1e-14)
 
 
+@pytest.mark.slow
 def test_fixed_tf_fuel_and_repropagated_miss(fixed_tf):
     sol = fixed_tf
     assert sol.status.outcome is Outcome.OPTIMAL, sol.status.message
@@ -101,6 +102,7 @@ def test_optimality_conditions_hold(fixed_tf):
     assert o["thrust_primer_alignment_min_cos"] > 1.0 - 1e-9
 
 
+@pytest.mark.slow
 def test_mesh_independence(impulsive, fixed_tf):
     """Sixteen nodes per segment and half the segment lengths: the same answer."""
     fine = solve_finite_thrust(_problem(mesh=MeshOptions(nodes=16, coast_segment_s=500.0, burn_segment_s=100.0)),
@@ -133,6 +135,7 @@ def test_cancellation_returns_cancelled(impulsive):
     assert sol.status.iterations <= 5
 
 
+@pytest.mark.slow
 def test_cancellation_in_a_later_round_is_still_cancelled(impulsive):
     """Cancelled while the second mesh is solving: the answer is the first mesh's, the status
     says cancelled (not optimal)."""
@@ -149,6 +152,7 @@ def test_cancellation_in_a_later_round_is_still_cancelled(impulsive):
     assert len(sol.history) == 2 and sol.fuel_kg == pytest.approx(first.fuel_kg, abs=1e-6)
 
 
+@pytest.mark.slow
 def test_paper_single_segment_60_nodes_misses_when_reflown(impulsive):
     """The paper's transcription (one 60-node LGL segment, free throttle): IPOPT converges
     near the right fuel, but a polynomial cannot hold the burn's jumps, and re-flying the
@@ -160,6 +164,7 @@ def test_paper_single_segment_60_nodes_misses_when_reflown(impulsive):
     assert sol.status.outcome is Outcome.NOT_CONVERGED and "re-propagated miss" in sol.status.message
 
 
+@pytest.mark.slow
 def test_infeasible_propellant_is_reported_clearly(impulsive):
     sol = solve_finite_thrust(_problem(propellant_kg=150.0), initial_guess=impulsive)
     assert sol.status.outcome is Outcome.INFEASIBLE
@@ -185,6 +190,7 @@ def test_free_final_time_within_2000_12000():
     assert o["hamiltonian_relative_variation"] < 1e-5, o
 
 
+@pytest.mark.slow
 def test_free_final_time_fuel_falls_with_the_upper_bound():
     """A larger upper bound admits every earlier answer, so the best fuel can only fall;
     it does, until the interior optimum near 10091 s is inside the bounds."""
@@ -233,6 +239,7 @@ def test_without_short_arcs_merges_and_keeps_the_total():
     assert without_short_arcs(out, 1e-9) is None
 
 
+@pytest.mark.slow
 def test_fixed_tf_6000_is_infeasible_not_unconverged():
     # tf = 6000 s (issue 15): the cheapest single impulse, 3883.8 m/s (366 kg of 400), flies through
     # the Earth (its arc's periapsis is below 3000 km).  Its finite-thrust neighbour then failed as
@@ -277,6 +284,7 @@ def test_a_failed_finite_thrust_solve_is_classified_by_the_impulsive_bound(ipopt
     assert sol.status.outcome is outcome
 
 
+@pytest.mark.slow
 def test_verification_reports_the_smallest_radius_and_the_planet():
     from tests.preset_results import solve_preset
 
@@ -295,6 +303,7 @@ def test_verification_reports_the_smallest_radius_and_the_planet():
     assert sol.finite_thrust.verification["min_radius_m"] < 6378137.0
 
 
+@pytest.mark.slow
 def test_cheapest_impulse_above_the_propellant_on_board_is_infeasible():
     # Issue 25: a cheapest admissible impulse of 682 kg with 600 kg on board (774 kg wet at tf = 6000 s)
     # ends infeasible, whatever IPOPT's iterates do on this CPU (the impulsive bound decides).
@@ -311,6 +320,7 @@ def test_cheapest_impulse_above_the_propellant_on_board_is_infeasible():
 
 
 @pytest.mark.parametrize("upper", [7500.0, 8000.0])
+@pytest.mark.slow
 def test_a_study_row_states_no_time_outside_its_bounds(upper):
     # Issue 25 item 4: fuel-vs-intercept-time rows whose allowed time ends before 8080.5 s showed the
     # impulsive answer at 8080.5 s; the impulsive method now answers within the row's own bounds.

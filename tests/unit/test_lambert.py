@@ -54,6 +54,7 @@ def test_batch_lands_on_r2_and_keeps_shape():
         assert (h_z > 0).all() if prograde else (h_z < 0).all()
 
 
+@pytest.mark.slow
 def test_multi_revolution_branches_and_infeasible():
     r1 = np.array([7000e3, 0.0, 0.0])
     r2 = np.array([0.0, 8000e3, 500e3])
@@ -266,6 +267,7 @@ def test_multi_revolution_near_the_minimum_time(m):
 
 @pytest.mark.parametrize("m", [1, 2])
 @pytest.mark.parametrize("low", [True, False])
+@pytest.mark.slow
 def test_multi_revolution_agrees_with_lamberthub(m, low):
     # Independent implementation of the same algorithm (its initial guesses, Izzo eq. 31, and its
     # convergence test differ from ours): random geometry, times of flight from 1e-4 above the

@@ -47,6 +47,7 @@ def table3_solution():
     return solve(paper_problem(mode="evaluate", schedules=[row[0] for row in TABLE3]))
 
 
+@pytest.mark.slow
 def test_table3_matches_reimplementation(table3_solution):
     sol = table3_solution
     assert sol.status.outcome is Outcome.OPTIMAL
@@ -185,6 +186,7 @@ def test_monte_carlo_is_the_per_sample_evaluation():
     assert np.all(pct >= np.min(per_sample, axis=1)) and np.all(pct <= np.max(per_sample, axis=1))
 
 
+@pytest.mark.slow
 def test_monte_carlo_statistics_and_seed():
     def run(statistic, seed):
         disp = Dispersion(samples=200, percentile=99.0, seed=seed, statistic=statistic)

@@ -125,6 +125,7 @@ json.dump({"hypervolume": res["hypervolume"],
 """
 
 
+@pytest.mark.slow
 def test_paper_run_front_is_the_same_in_another_process_and_as_good_as_the_seeds_spread():
     # Paper 002's preset (100 x 500, seed 1).  A genetic search follows roundoff and its random
     # stream, so its front is not a reference number (Table 3's are, in test_midcourse.py), and its

@@ -281,6 +281,7 @@ def test_fuzz_trees(expr):
 
 @settings(max_examples=300, deadline=1000)
 @given(st.text(alphabet=st.characters(codec="utf-8"), max_size=60))
+@pytest.mark.slow
 def test_fuzz_text(expr):
     _parse_or_refuse(expr)
 

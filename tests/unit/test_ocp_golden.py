@@ -36,6 +36,7 @@ def _cases() -> list[str]:
 
 
 @pytest.mark.parametrize("case", _cases())
+@pytest.mark.slow
 def test_the_answer_is_the_recorded_one(records, case):
     old = json.loads((FIXTURES / f"ocp__{case}.json").read_text())
     new = records[case]

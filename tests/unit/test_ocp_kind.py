@@ -212,6 +212,7 @@ _exprs = st.recursive(_atoms, lambda inner: st.one_of(
 
 @hsettings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(text=st.one_of(_exprs, st.text(max_size=60)), where=st.sampled_from(["dynamics", "path", "objective"]))
+@pytest.mark.slow
 def test_fuzz_never_a_500(client, text, where):
     b = body()
     if where == "dynamics":
@@ -264,6 +265,7 @@ RESULT = {
 }
 
 
+@pytest.mark.slow
 def test_key_numbers_plots_and_the_result_model_of_a_result():
     from app.results.plots import plots_for, render
 

@@ -123,6 +123,7 @@ def test_progress_is_reported():
     assert all(0.0 <= f <= 1.0 for f, _ in seen)
 
 
+@pytest.mark.slow
 def test_tables_parameters_and_expressions():
     """g from a 1-D and a 2-D table (constant values), a static parameter scaling the drag-free
     dynamics, boundary constraints on parameters: the brachistochrone's optimum again."""
@@ -161,6 +162,7 @@ def test_lagrange_and_mayer_with_free_parameter():
     assert np.allclose(sol.trajectory["u"], 1.0, atol=1e-6)
 
 
+@pytest.mark.slow
 def test_coarse_lgl_that_exploits_the_grid_is_flagged():
     params = copy.deepcopy(PRESETS["hang-glider"]["params"])
     params["transcription"] = {"method": "lgl", "intervals": 25, "nodes": 4}

@@ -53,6 +53,7 @@ def test_bad_params_name_the_rule(params, rule):
     assert rule in str(exc.value)
 
 
+@pytest.mark.slow
 def test_betts_preset_result(betts):
     out, ctx = betts
     assert out.status == "succeeded"
@@ -90,6 +91,7 @@ def test_a_preset_is_recognized_by_its_problem_not_by_its_guess():
     assert preset_posed(preset("betts-max-crossrange", path={"max_heat_rate_w_m2": 700000.0})) is None
 
 
+@pytest.mark.slow
 def test_infeasible_case_fails_with_diagnosis():
     # (how fast it fails is benchmarks' business: IPOPT is told to expect infeasibility)
     out = run(preset("shuttle-min-heat-load-terminal"), RecordingContext())
@@ -130,6 +132,7 @@ def test_cancellation_mid_solve():
     assert out.result["solver"]["iterations"] <= 6
 
 
+@pytest.mark.slow
 def test_paper000_max_crossrange():
     out = run(preset("shuttle-max-crossrange"), RecordingContext())
     assert out.status == "succeeded" and out.result["solver"]["status"] == "Solve_Succeeded"
@@ -158,6 +161,7 @@ def test_non_finite_numbers_become_null_not_zero():
     json.dumps(block, allow_nan=False)
 
 
+@pytest.mark.slow
 def test_heat_limited_preset_limits_block():
     """Limits that hold: the verification reports each limit's worst fine-grid value and verdict."""
     out = run(preset("betts-max-crossrange-heat-limited"), RecordingContext())
@@ -176,6 +180,7 @@ def test_heat_limited_preset_limits_block():
     assert any("hold on the dense re-propagation" in n for n in res["notes"])
 
 
+@pytest.mark.slow
 def test_limit_not_held_fails_with_code_and_stores_the_answer():
     p = preset("betts-max-crossrange-heat-limited", grid={"intervals": 50},
                path={"enforcement": "nodes", "limit_rounds": 0})

@@ -13,6 +13,7 @@ from solvers import reentry as rs
 from solvers.common import Outcome
 
 
+@pytest.mark.slow
 def test_betts_max_crossrange_refined_from_25_intervals():
     # accuracy 1e-6 of each state's scale (0.1 m of altitude at a 1e5 m scale): 25 intervals re-fly
     # to 3e-3, and the objective converges with the grid to 34.1412 deg

@@ -83,6 +83,7 @@ def heat_100():
     return heat_limited(100)
 
 
+@pytest.mark.slow
 def test_heat_limited_100_intervals(heat_100):
     s = heat_100
     assert s.status.outcome is Outcome.OPTIMAL and s.status.solver_status == "Solve_Succeeded"
@@ -122,6 +123,7 @@ def test_limit_that_cannot_be_made_to_hold_fails_with_its_code():
     assert s.x.shape == (6, 51) and np.isfinite(s.objective_value)   # the diagnostic answer
 
 
+@pytest.mark.slow
 def test_tightening_rounds_make_node_enforcement_hold():
     s = heat_limited(50, path_enforcement="nodes")
     assert s.status.outcome is Outcome.OPTIMAL

@@ -33,6 +33,7 @@ def aero_table_case(**over) -> ReentryParams:
     return ReentryParams.model_validate(deep_merge(params, over))
 
 
+@pytest.mark.slow
 def test_aero_table_case_holds_its_terminal_conditions_or_says_it_does_not():
     out = run(aero_table_case(), RecordingContext())
     ver = out.result["verification"]
@@ -111,6 +112,7 @@ def test_least_betts_heating_over_alpha_is_the_cubics_minimum_and_feasible_limit
     assert entry["least"] <= grid_min and entry["least"] == pytest.approx(grid_min, rel=1e-8)
 
 
+@pytest.mark.slow
 def test_a_limit_between_the_entry_and_the_least_peak_is_infeasible_before_the_limited_nlp():
     # 3.2e5 W/m^2: the entry heats at 3.09e5 (no pinned-end proof), but the least peak any control gives
     # is 3.30e5 on 20 coarse intervals and 3.32e5 on 40 (issue 35 item 8: this failed only after the
@@ -129,6 +131,7 @@ def test_a_limit_between_the_entry_and_the_least_peak_is_infeasible_before_the_l
     assert stages == ["least peak heating, 20 intervals", "least peak heating, 40 intervals"]
 
 
+@pytest.mark.slow
 def test_feasible_heating_limits_are_not_certified_infeasible():
     # The Betts preset's 70 BTU/ft^2/s (least peak 2.53e5 W/m^2 against 7.95e5) and the aero-table
     # vehicle's 9e5 and 3.4e5 (least peak 3.30e5): the first coarse grid is under the limit, so the

@@ -54,6 +54,7 @@ def _check_all(kind: str, params: dict, result: dict) -> list:
 
 
 @pytest.mark.parametrize("name", FAST)
+@pytest.mark.slow
 def test_every_plot_renders_and_the_report_holds_them(solved, name):
     kind, params, outcome = solved[name]
     if outcome.status != "succeeded":  # the paper's infeasible case 4: an answer, with no plots
@@ -84,6 +85,7 @@ def _num(text: str):
 
 
 @pytest.mark.parametrize("name", FAST)
+@pytest.mark.slow
 def test_csv_tables_round_trip_the_json_numbers(solved, name):
     kind, _, outcome = solved[name]
     if outcome.status != "succeeded":

@@ -10,6 +10,8 @@ import time
 import urllib.request
 from pathlib import Path
 
+import pytest
+
 from app.runtime.serving import reuseport_socket
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -55,6 +57,7 @@ def test_the_kernel_spreads_connections_over_reuseport_listeners():
         b.close()
 
 
+@pytest.mark.slow
 def test_trajlab_api_serves_each_process_on_its_own_socket_and_stops_on_sigterm(tmp_path):
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))

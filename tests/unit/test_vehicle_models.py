@@ -55,6 +55,7 @@ def test_table_matches_the_polynomial_it_was_sampled_from_and_keeps_the_scales()
     assert np.allclose(np.asarray(f(x[:, 2], u[:, 2])).ravel(), dyn.eom(x[:, 2], u[:, 2], veh), rtol=1e-13)
 
 
+@pytest.mark.slow
 def test_table_vehicle_reproduces_betts_max_crossrange():
     veh = dataclasses.replace(sh.SHUTTLE, aero_table=_shuttle_table())
     s = rs.solve(rs.ReentryProblem(vehicle=veh, intervals=100))
