@@ -63,6 +63,7 @@ def test_the_guide_builds_strict_with_every_page_of_the_nav(site):
         assert (site / page / "index.html").is_file(), page
 
 
+@pytest.mark.slow
 def test_no_built_page_loads_anything_from_the_internet(site):
     pages = list(site.rglob("*.html"))
     assert len(pages) >= 10

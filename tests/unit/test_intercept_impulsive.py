@@ -142,6 +142,7 @@ def test_kind_run_preset_impulsive_only():
     assert res["finite_thrust"] is None and res["notes"]
 
 
+@pytest.mark.slow
 def test_kind_runs_both_methods_with_porkchop():
     """Default methods: the impulsive scan, its porkchop, and the finite-thrust
     solution warm-started from it, compared in one table."""

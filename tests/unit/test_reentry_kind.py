@@ -103,6 +103,7 @@ def test_infeasible_case_fails_with_diagnosis():
     assert "1.14 deg" in out.error["message"]
 
 
+@pytest.mark.slow
 def test_warm_start_from_stored_result(betts):
     out, _ = betts
     stored = json.loads(json.dumps(out.result))

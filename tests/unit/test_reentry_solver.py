@@ -98,6 +98,7 @@ def test_heat_limited_100_intervals(heat_100):
 
 
 @pytest.mark.parametrize("m", [50, 100, pytest.param(200, marks=pytest.mark.slow)])
+@pytest.mark.slow
 def test_default_heat_limited_answer_keeps_the_limit_between_nodes(m, heat_100):
     """Limits that hold: before, node enforcement overshot by 1.15% (50), 0.61% (100), 0.15% (200)."""
     s = heat_100 if m == 100 else heat_limited(m)

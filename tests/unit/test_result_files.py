@@ -160,6 +160,7 @@ def test_the_oem_reads_back_with_the_library_and_starts_on_the_interceptors_orbi
     assert np.linalg.norm(r[-1] - rt[0]) < typed.finite_thrust.miss_tolerance_m
 
 
+@pytest.mark.slow
 def test_the_default_body_of_the_default_intercept_preset_is_under_50_kb(solved):
     import json
 

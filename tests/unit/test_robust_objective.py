@@ -24,6 +24,7 @@ def test_headline_falls_back_to_cadet_and_says_why():
     assert obj["value"] == 28.158 and obj["source"] == "cadet" and "no estimate" in note
 
 
+@pytest.mark.slow
 def test_robust_preset_headline_is_within_two_standard_errors_of_its_monte_carlo():
     _, _, out = solve_preset("robust-max-crossrange")
     res = out.result
