@@ -72,10 +72,12 @@ def check_phase(block, num: Numbers, z: np.ndarray, *, t0: float, agreement: flo
     c = num.p[:fns.nc]
     t_nodes = t0 + (att.tf - t0) * grid.tau()
     U = nlp.node_controls(att.U)
+    u_bounds = [(k.lower, k.upper) for k in ph.controls]
     ver = verify(fns=fns, grid=grid, t_nodes=t_nodes, X=att.X, U=U, theta=att.theta, c=c, t0=t0, tf=att.tf,
                  state_names=ph.state_names, x_scale=num.x_scale,
                  path_bounds=[(k.lower, k.upper) for k in ph.path],
-                 path_names=[k.name for k in ph.path], path_scale=num.path_scale)
+                 path_names=[k.name for k in ph.path], path_scale=num.path_scale,
+                 control_names=[k.name for k in ph.controls], control_bounds=u_bounds)
     terminal = terminal_checks(problem=prob, fns=fns, x_scale=num.x_scale, c=c, theta=att.theta, tf=att.tf,
                                x=ver.x, u=ver.u) if ver.ok else {}
     held = all(v["held"] for v in terminal.values())

@@ -56,6 +56,12 @@ def solution_of(problem: OcpProblem, *, nlp, res, status: SolveStatus, checks: l
              f"more than {agreement:g}: the grid is too coarse for this problem (or the optimizer exploits the "
              "discretization, as free controls at every collocation node can); refine the grid or use multiple "
              "shooting" for c in checks if c.ok and not c.agrees]
+    for c in checks:       # an LGL control's polynomial overshooting its bounds between the nodes
+        for name, e in c.verification.controls.items():
+            if not e["held"]:
+                notes.append(f"{c.label}control {name} leaves its bounds [{e['lower']}, {e['upper']}] between the "
+                             f"nodes (worst {e['worst_value']:.4g} at t = {e['worst_t']:.4g}): LGL holds a bound at "
+                             "the nodes only; refine, or use multiple shooting for a control that saturates")
     if rounds:
         held = all(c.limits_held for c in checks)
         notes.append(f"path limits tightened on the intervals where the dense re-propagation exceeded "
@@ -77,6 +83,7 @@ def solution_of(problem: OcpProblem, *, nlp, res, status: SolveStatus, checks: l
             worst = max(worst, c.worst) if c.ok else float("nan")
         verification = {"ok": all(c.ok for c in checks), "limits_held": all(c.limits_held for c in checks),
                         "terminal_held": all(c.terminal_held for c in checks),
+                        "controls_held": all(c.report["verification"]["controls_held"] for c in checks),
                         "agrees": all(c.agrees for c in checks), "agreement_tolerance": agreement,
                         "max_state_difference_scaled_overall": worst,
                         "links": link_values(problem, phases, theta)}

@@ -10,6 +10,18 @@ to the NLP's nodes, absolute and divided by the state's scale; per path constrai
 value on the dense grid against its bounds (Betts, *Practical Methods for Optimal Control*,
 2nd ed., sec. 4.7: a limit enforced at the nodes can be exceeded between them), and per
 interval the worst excess, which the limit loop of :mod:`solvers.ocp.limits` tightens against.
+
+An LGL control is the polynomial through its nodes, which holds the control's bounds at the nodes
+only (a bang-bang control overshoots between them: +-1.131 on [-1, 1] for the double integrator).
+Per bounded control the interpolant's worst value on the dense grid is reported with its time and
+excursion beyond the bounds (:func:`control_excursions`), and ``controls_held`` says whether every
+excursion is within :data:`LIMIT_TOLERANCE` of the bounds' width.  It is reported, not clipped and
+not made a failure: the NLP defines the control at the nodes, where the bounds hold, and the
+overshoot stays at any grid when a switch falls on a segment end (the shared node forces the
+polynomial through it), so clipping the re-flight or tightening rounds would turn every converged
+LGL bang-bang answer into a failure (the double integrator: ``terminal_not_held`` after three
+refinements to 80 segments).  Multiple-shooting controls (constant or linear between the nodes)
+hold their bounds by construction.
 """
 from __future__ import annotations
 
@@ -34,6 +46,7 @@ class Verification:
     max_abs_difference: dict[str, float]         # per state, over the nodes
     max_scaled_difference: dict[str, float]
     path: dict[str, dict] = field(default_factory=dict)
+    controls: dict[str, dict] = field(default_factory=dict)   # per bounded LGL control, its excursion
     interval_excess: list[np.ndarray] = field(default_factory=list)   # per path constraint, (m,)
     limits_held: bool = True
     ok: bool = True
@@ -44,7 +57,8 @@ class Verification:
                 "max_state_difference": self.max_abs_difference,
                 "max_state_difference_scaled": self.max_scaled_difference,
                 "max_state_difference_scaled_overall": max(self.max_scaled_difference.values(), default=0.0),
-                "path": self.path, "limits_held": self.limits_held, "limit_tolerance": LIMIT_TOLERANCE,
+                "path": self.path, "controls": self.controls,
+                "controls_held": all(e["held"] for e in self.controls.values()), "limits_held": self.limits_held, "limit_tolerance": LIMIT_TOLERANCE,
                 "ok": self.ok, "message": self.message}
 
 
@@ -66,6 +80,31 @@ def control_function(grid, t_nodes: np.ndarray, U: np.ndarray):
         return U[:, off[k]:off[k] + per[k]] @ lagrange_matrix(lgl_nodes(int(per[k])), s).T
     del m
     return u
+
+
+def control_excursions(t: np.ndarray, u: np.ndarray, names: list[str],
+                       bounds: list[tuple[float | None, float | None]]) -> dict[str, dict]:
+    """Per bounded control, the interpolant's extremes on the dense grid and the largest distance by
+    which it left its bounds there (0 when it stayed inside), with the time of that worst value;
+    ``held`` when that is within :data:`LIMIT_TOLERANCE` of the bounds' width (of the one bound's
+    size, at least 1, for a control bounded on one side)."""
+    out = {}
+    for i, (name, (lo, hi)) in enumerate(zip(names, bounds)):
+        if lo is None and hi is None:
+            continue
+        v = u[i]
+        over = np.zeros(v.shape)
+        if hi is not None:
+            over = np.maximum(over, v - hi)
+        if lo is not None:
+            over = np.maximum(over, lo - v)
+        j = int(np.argmax(over))
+        ends = [b for b in (lo, hi) if b is not None]
+        width = ends[1] - ends[0] if len(ends) == 2 else max(1.0, abs(ends[0]))
+        out[name] = {"lower": lo, "upper": hi, "min": float(v.min()), "max": float(v.max()),
+                     "worst_value": float(v[j]), "worst_t": float(t[j]), "excursion": float(over[j]),
+                     "held": bool(over[j] <= LIMIT_TOLERANCE * width)}
+    return out
 
 
 def _fast_rhs(fns, args):
@@ -152,10 +191,13 @@ def local_errors(*, fns, grid, t_nodes, X, U, theta, c, t0, tf, x_scale) -> np.n
 
 
 def verify(*, fns, grid, t_nodes, X, U, theta, c, t0, tf, state_names, x_scale,
-           path_bounds, path_names, path_scale) -> Verification:
+           path_bounds, path_names, path_scale, control_names: list[str] | None = None,
+           control_bounds: list[tuple[float | None, float | None]] | None = None) -> Verification:
     """Re-fly ``U`` from ``X[:, 0]`` (module docstring).  ``path_bounds``: (lower, upper) per path
-    constraint (None for a side without a bound)."""
+    constraint (None for a side without a bound); ``control_bounds`` the same per control (named by
+    ``control_names``): an LGL interpolant's excursion beyond them is reported (module docstring)."""
     uf = control_function(grid, t_nodes, np.asarray(U, float))
+    lgl_bounds = control_bounds if grid.method == "lgl" else None
     ends = interval_bounds(grid, t_nodes)
     m = grid.intervals
     args = (np.asarray(theta, float), np.asarray(c, float), t0, tf)
@@ -190,14 +232,16 @@ def verify(*, fns, grid, t_nodes, X, U, theta, c, t0, tf, state_names, x_scale,
     xs_.append(y[:, None])
     us_.append(uf(np.array([t_nodes[-1]]), m - 1))
     t_d, x_d, u_d = np.concatenate(ts), np.hstack(xs_), np.hstack(us_)
+    excursions = {} if lgl_bounds is None else control_excursions(t_d, u_d, control_names or [], lgl_bounds)
     if fail:
         nan = {s: float("nan") for s in state_names}
         return Verification(t=t_d, x=x_d, u=u_d, max_abs_difference=nan, max_scaled_difference=dict(nan),
-                            limits_held=False, ok=False, message=fail)
+                            controls=excursions, limits_held=False, ok=False, message=fail)
     diff = np.abs(np.column_stack(node_x) - X)
     abs_d = {s: float(diff[i].max()) for i, s in enumerate(state_names)}
     scaled = {s: float(diff[i].max() / scale[i]) for i, s in enumerate(state_names)}
-    ver = Verification(t=t_d, x=x_d, u=u_d, max_abs_difference=abs_d, max_scaled_difference=scaled)
+    ver = Verification(t=t_d, x=x_d, u=u_d, max_abs_difference=abs_d, max_scaled_difference=scaled,
+                       controls=excursions)
     if fns.npath:
         vals = np.asarray(fns.path.map(t_d.size)(t_d[None, :], x_d, u_d, args[0], args[1], t0, tf))
         interval = np.minimum(np.searchsorted(ends, t_d, side="right") - 1, m - 1)
@@ -220,4 +264,9 @@ def verify(*, fns, grid, t_nodes, X, U, theta, c, t0, tf, state_names, x_scale,
     ver.message = ("re-propagated states agree with the nodes to "
                    f"{max(scaled.values()):.2e} (scaled); path limits "
                    f"{'hold' if ver.limits_held else 'do NOT hold'} on the dense grid")
+    outside = {n: e for n, e in excursions.items() if not e["held"]}
+    if outside:   # said only when it happens, so answers that keep their bounds read as before
+        n, worst_c = max(outside.items(), key=lambda kv: kv[1]["excursion"])
+        ver.message += (f"; controls leave their bounds between the nodes (worst: {n} = "
+                        f"{worst_c['worst_value']:.4g} at t = {worst_c['worst_t']:.4g}; held at the nodes)")
     return ver

@@ -207,3 +207,41 @@ def test_a_study_over_constants_and_bounds_reuses_the_build():
     assert first.status.ok and again.status.ok
     assert again.solver["cached_build"] and again.status.build_time_s == 0.0
     assert again.tf > first.tf                             # weaker gravity: slower descent
+
+
+def test_lgl_control_leaving_its_bounds_between_nodes_is_reported():
+    """Issue 35 item 6: the LGL control is the polynomial through its nodes, which a bang-bang control
+    overshoots between them; the verification reports its worst value and time, a multiple-shooting
+    solve of the same problem (constant controls) reports none."""
+    from solvers.ocp.catalogue import double_integrator_min_time as di
+    params = copy.deepcopy(di.PARAMS)
+    params["transcription"] = {"method": "lgl", "intervals": 10, "nodes": 4}
+    sol = run(params)
+    assert sol.status.outcome is Outcome.OPTIMAL, sol.status.message
+    assert sol.objective == pytest.approx(2.0, abs=1e-4)
+    ver = sol.verification
+    u = ver["controls"]["u"]
+    assert not u["held"] and not ver["controls_held"]
+    assert abs(u["worst_value"]) == pytest.approx(1.0 + u["excursion"])
+    assert u["excursion"] > 0.05 and 0.0 < u["worst_t"] < sol.tf
+    # independently: each segment's cubic through its 4 nodes, sampled finely, overshoots at least as far
+    # as the 20 samples per interval of the re-flight saw, and not far beyond
+    t, uu = np.asarray(sol.trajectory["t"]), np.asarray(sol.trajectory["u"])
+    assert np.all(np.abs(uu) <= 1.0 + 1e-6)                     # the nodes hold the bounds
+    peak = max(np.abs(np.polyval(np.polyfit(t[i:i + 4], uu[i:i + 4], 3), np.linspace(t[i], t[i + 3], 401))).max()
+               for i in range(0, t.size - 1, 3))
+    assert 1.0 + u["excursion"] <= peak + 1e-9 and peak - 1.0 < 1.1 * u["excursion"]
+    assert "leave their bounds between the nodes" in ver["message"]
+    assert any("control u leaves its bounds" in n for n in sol.notes)
+    from app.kinds.ocp.headlines import headlines
+    from app.kinds.ocp.params import OcpParams
+    from app.kinds.ocp.result import build_result
+    result = build_result(sol, OcpParams.model_validate(params), wall_time_s=0.0)
+    assert result["verification"]["controls"]["u"]["worst_value"] == u["worst_value"]
+    line = next(h for h in headlines(result, params) if h.name == "controls within bounds")
+    assert line.good is False and line.value == u["worst_value"] and "u = " in line.text
+
+    ms = run(copy.deepcopy(di.PARAMS))
+    assert ms.status.outcome is Outcome.OPTIMAL
+    assert ms.verification["controls"] == {} and ms.verification["controls_held"]
+    assert not any("leaves its bounds" in n for n in ms.notes)

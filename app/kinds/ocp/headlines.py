@@ -33,6 +33,12 @@ def headlines(result: dict, params: dict | None = None) -> list[Headline]:
     if isinstance(v.get("limits_held"), bool):
         out.append(verdict("path limits", held=v["limits_held"], value=None, unit="",
                            detail=f"on the dense re-flight (tolerance {v.get('limit_tolerance')})"))
+    outside = {k: c for k, c in (v.get("controls") or {}).items() if isinstance(c, dict) and not c.get("held")}
+    if outside:      # an LGL control's polynomial leaving its bounds between the nodes (issue 35 item 6)
+        name, c = max(outside.items(), key=lambda kv: kv[1].get("excursion") or 0.0)
+        out.append(verdict("controls within bounds", held=False, value=c.get("worst_value"), unit="",
+                           detail=f"{name} = {c.get('worst_value')} at t = {c.get('worst_t')} s between the nodes "
+                                  "(held at the nodes)"))
     terminal = terminal_headline(v)
     if terminal:
         out.append(terminal)

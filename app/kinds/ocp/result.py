@@ -82,6 +82,20 @@ class OcpResultPathCheck(ResultModel):
     held: bool | None = Field(None, description="Within the bounds to the tolerance on the whole dense grid")
 
 
+class OcpResultControlCheck(ResultModel):
+    """One bounded LGL control on the dense re-flight: its interpolating polynomial against its bounds,
+    which the NLP holds at the nodes only."""
+
+    lower: Num = Field(None, description="Lower bound (null: none)")
+    upper: Num = Field(None, description="Upper bound (null: none)")
+    min: Num = Field(None, description="Smallest value of the interpolant on the dense grid")
+    max: Num = Field(None, description="Largest value of the interpolant on the dense grid")
+    worst_value: Num = Field(None, description="The value farthest outside the bounds (or nearest them)")
+    worst_t: Num = Field(None, description="Time of the worst value (s)")
+    excursion: Num = Field(None, description="Distance of the worst value beyond its bound (0: within)")
+    held: bool | None = Field(None, description="Excursion within limit_tolerance of the bounds' width")
+
+
 class OcpResultTerminalCheck(ResultModel):
     """One terminal condition on the re-flight: a fixed final value or a boundary constraint."""
 
@@ -143,6 +157,10 @@ class OcpResultVerification(ResultModel):
     path: dict[str, OcpResultPathCheck] | None = Field(None, description="path constraint name -> its check "
                                                        "on the dense grid")
     limits_held: bool | None = Field(None, description="Every path constraint held on the dense grid")
+    controls: dict[str, OcpResultControlCheck] | None = Field(
+        None, description="LGL: bounded control name -> its interpolant on the dense grid against its bounds")
+    controls_held: bool | None = Field(None, description="Every control within its bounds on the dense grid "
+                                       "(multiple shooting: by construction)")
     limit_tolerance: Num = Field(None, description="Scaled excess still counted as held")
     terminal: dict[str, OcpResultTerminalCheck] | None = Field(
         None, description="'final(state)' or a boundary constraint's name -> its check on the re-flight")
