@@ -235,8 +235,9 @@ def test_lgl_control_leaving_its_bounds_between_nodes_is_reported():
     assert any("control u leaves its bounds" in n for n in sol.notes)
     from app.kinds.ocp.headlines import headlines
     from app.kinds.ocp.params import OcpParams
-    from app.kinds.ocp.result import build_result
+    from app.kinds.ocp.result import OcpResult, build_result
     result = build_result(sol, OcpParams.model_validate(params), wall_time_s=0.0)
+    assert OcpResult.model_validate(result).verification.controls["u"].held is False
     assert result["verification"]["controls"]["u"]["worst_value"] == u["worst_value"]
     line = next(h for h in headlines(result, params) if h.name == "controls within bounds")
     assert line.good is False and line.value == u["worst_value"] and "u = " in line.text
