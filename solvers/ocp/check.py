@@ -98,7 +98,8 @@ def check_phase(block, num: Numbers, z: np.ndarray, *, t0: float, agreement: flo
         H, size = hamiltonian(nlp=nlp, att=att, lam=lam, U=U, t_nodes=t_nodes, c=c, t0=t0)
         verification["optimality"] = optimality_checks(problem=prob, nlp=nlp, att=att, lam=lam, U=U, t_nodes=t_nodes,
                                                        c=c, t0=t0, H=H, size=size, single=single,
-                                                       tolerance=agreement)
+                                                       tolerance=agreement,
+                                                       dense=(ver.t, ver.x, ver.u) if ver.ok else None)
         extra = {"costates": {s.name: lam[i] for i, s in enumerate(ph.states)}, "hamiltonian": H}
     report = {"name": block.name, "t0": t0, "tf": att.tf, **extra,
               "initial": {s.name: float(att.X[i, 0]) for i, s in enumerate(ph.states)},

@@ -129,6 +129,10 @@ class OcpResultOptimalityCheck(ResultModel):
     expected: Num = Field(None, description="hamiltonian_final: the value H(tf) must take")
     nodes: int | None = Field(None, description="stationarity: the nodes checked (every control and path "
                               "constraint strictly inside its bounds)")
+    t: Num = Field(None, description="minimum_principle: the time of the worst gap H(u used) - min H over the "
+                   "controls' bounds")
+    samples: int | None = Field(None, description="minimum_principle: the re-flight's samples checked (the "
+                                "nodes and between them; off the arcs where a path constraint is on its bound)")
 
 
 class OcpResultOptimality(ResultModel):
@@ -136,7 +140,8 @@ class OcpResultOptimality(ResultModel):
 
     held: bool | None = Field(None, description="Every condition checked held")
     checks: dict[str, OcpResultOptimalityCheck] | None = Field(
-        None, description="hamiltonian_constant, hamiltonian_final, stationarity: those that apply")
+        None, description="hamiltonian_constant, hamiltonian_final, stationarity, minimum_principle: those "
+        "that apply")
     message: str | None = Field(None, description="Which conditions were checked and which failed")
 
 
