@@ -10,9 +10,12 @@ from tests.faults.conftest import report
 
 pytestmark = [pytest.mark.integration, pytest.mark.faults]
 
-# A reentry solve on the largest grid allowed: long enough to hold its slot while the quick jobs run
-# (it is cancelled at the end), and above the heavy cost this test sets, so it goes to the heavy queue.
-HEAVY = {"kind": "reentry", "params": {"grid": {"intervals": 1000}}}
+# NSGA-II at the largest population and generation count allowed: 100 times the preset's evaluations, minutes
+# on any machine, so it holds its slot while the quick jobs run (it is cancelled at the end); its cost (1e6)
+# is above the heavy cost this test sets, so it goes to the heavy queue.  (A reentry solve at 1000 intervals
+# was the heavy job until it finished in under 25 s and voided the scenario.)
+HEAVY = {"kind": "midcourse", "preset": "upper-stage-two-corrections",
+         "params": {"population": 1000, "generations": 5000}}
 
 
 def _wait(stack, job_id: str, statuses: tuple[str, ...], timeout: float) -> dict:
@@ -25,7 +28,8 @@ def _wait(stack, job_id: str, statuses: tuple[str, ...], timeout: float) -> dict
 
 
 def test_a_quick_job_finishes_while_every_heavy_slot_is_busy(stack):
-    stack.settings.heavy_cost = 1000.0  # the API's settings: reentry at 1000 intervals (cost 2000) is heavy
+    stack.settings.heavy_cost = 1000.0  # the API's settings: HEAVY (cost 1e6) is heavy, the quick job is not
+    stack.settings.max_active_cost_per_owner = 1e7  # two heavy jobs and the quick ones admitted together
     stack.start_worker(concurrency=1)  # one slot for heavy and quick jobs, one reserved for quick ones
     heavy = []
     for _ in range(2):
