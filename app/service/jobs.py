@@ -13,7 +13,6 @@ live in one place:
 from __future__ import annotations
 
 import functools
-import json
 import typing
 from dataclasses import dataclass
 from datetime import datetime, timedelta, timezone
@@ -24,6 +23,7 @@ from sqlalchemy.orm import Session
 
 from app.kinds.failures import ERROR_CODES
 from app.service import storage
+from app.service.job_document import listed_job_json
 from app.service.broker import QUEUE_JOBS
 from app.runtime.db import Database
 from app.runtime.models import FINAL_STATUSES, Job, StoredResult, new_id, utcnow
@@ -38,61 +38,8 @@ else:
     JobRow = Row
 
 
-def _iso(dt: datetime | None) -> str | None:
-    """ISO 8601 in UTC with a ``Z``, as pydantic writes a UTC datetime (the job's JSON never changes form)."""
-    if dt is None:
-        return None
-    if dt.tzinfo is None:  # SQLite returns naive datetimes; every stored time is UTC
-        dt = dt.replace(tzinfo=timezone.utc)
-    text = dt.astimezone(timezone.utc).isoformat()
-    return text[:-6] + "Z" if text.endswith("+00:00") else text
-
-
 def _aware(dt: datetime) -> datetime:
     return dt.replace(tzinfo=timezone.utc) if dt.tzinfo is None else dt  # SQLite returns naive UTC
-
-
-def _error(error: dict | None) -> dict | None:
-    # the fields of schemas.JobError, in its order ("details" null when not stored)
-    return None if error is None else {"code": error.get("code"), "message": error.get("message"),
-                                       "details": error.get("details")}
-
-
-def job_to_dict(job: Job) -> dict:
-    """The job document of the API (``schemas.JobOut``'s fields, in its order, JSON-ready)."""
-    return _document(job, job.params)
-
-
-def _document(job, params) -> dict:
-    return {
-        "id": job.id,
-        "kind": job.kind,
-        "label": job.label,
-        "preset": job.preset,
-        "status": job.status,
-        "progress": job.progress,
-        "message": job.message,
-        "created_at": _iso(job.created_at),
-        "started_at": _iso(job.started_at),
-        "finished_at": _iso(job.finished_at),
-        "params": params,
-        "error": _error(job.error),
-        "attempts": job.attempts,
-    }
-
-
-def job_json(job: Job) -> bytes:
-    """The job document as JSON bytes, the body routes return directly: the same document FastAPI
-    wrote through ``response_model=JobOut`` (tests/unit/test_job_json.py), without validating it again
-    in a thread-pool hop."""
-    return json.dumps(job_to_dict(job), allow_nan=False, separators=(",", ":")).encode()
-
-
-def _listed_job_json(row) -> str:
-    # The params go out as the database stores them (JSON text written by SQLAlchemy from a validated,
-    # finite model dump): parsing and re-writing 20 of them was a third of a listing's CPU.
-    head, tail = json.dumps(_document(row, None), allow_nan=False, separators=(",", ":")).split(',"params":null,', 1)
-    return f'{head},"params":{row.params_json},{tail}'
 
 
 def _job_filters(*, kind, status, owner) -> list:
@@ -206,7 +153,7 @@ def list_jobs_json(db: Database, *, kind: str | None, status: str | None, limit:
     with db.read_connection() as conn:
         rows = conn.execute(q, args).all()
         total = rows[0].total if rows else int(conn.scalar(count, args) or 0)  # past the end: ask for it alone
-    return f'{{"items":[{",".join(_listed_job_json(r) for r in rows)}],"total":{int(total)}}}'.encode()
+    return f'{{"items":[{",".join(listed_job_json(r) for r in rows)}],"total":{int(total)}}}'.encode()
 
 
 def get_job(db: Database, job_id: str) -> Job | None:

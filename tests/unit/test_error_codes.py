@@ -15,7 +15,7 @@ from app.api.main import create_app
 from app.kinds.base import outcome_from_status
 from app.kinds.failures import ADVICE, ERROR_CODES
 from app.runtime.settings import Settings
-from app.service import jobs
+from app.service import job_document, jobs
 from solvers.common import Outcome, SolveStatus
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -73,6 +73,6 @@ def test_an_undeclared_code_is_stored_as_internal_naming_it(sqlite_db):
     assert jobs.claim(sqlite_db, job.id, 1, worker="w", max_attempts=3, stale_after_s=60)
     assert jobs.finish(sqlite_db, job.id, 1, status="failed", result=None, message="m",
                        error={"code": "no_such_code", "message": "m", "details": {"a": 1}})
-    stored = jobs.job_to_dict(jobs.get_job(sqlite_db, job.id))["error"]
+    stored = job_document.job_to_dict(jobs.get_job(sqlite_db, job.id))["error"]
     assert stored["code"] == "internal"
     assert stored["details"] == {"a": 1, "undeclared_code": "no_such_code"}

@@ -10,7 +10,7 @@ from datetime import datetime, timedelta, timezone
 import pytest
 
 from app.service import jobs
-from app.service.jobs import job_json, job_to_dict
+from app.service.job_document import job_json, job_to_dict
 from app.runtime.models import Job
 from app.api.schemas import JobList, JobOut
 

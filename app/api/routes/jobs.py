@@ -8,7 +8,7 @@ from typing import Annotated, Literal
 from fastapi import APIRouter, Body, Header, HTTPException, Query, Request, Response
 from fastapi.responses import JSONResponse
 
-from app.service import jobs, retention, submit
+from app.service import job_document, jobs, retention, submit
 from app.api.access import PrincipalDep, not_found, visible_job
 from app.api.deps import DatabaseDep
 from app.kinds import KINDS
@@ -59,7 +59,7 @@ def submit_job(
         preset=submission.preset, label=submission.label, owner=principal.owner,
         overrides=submission.params.model_dump(exclude_unset=True) if submission.params is not None else None,
         idempotency_key=idempotency_key, request_hash=request_hash, request_id=logs.current("request_id"))
-    return _job_response(jobs.job_json(job), status_code=202, headers={"Location": f"/v1/jobs/{job.id}"})
+    return _job_response(job_document.job_json(job), status_code=202, headers={"Location": f"/v1/jobs/{job.id}"})
 
 
 @router.get("", response_model=JobList)
@@ -79,7 +79,7 @@ def list_jobs(
 
 @router.get("/{job_id}", response_model=JobOut, responses={404: {"model": ErrorBody, "description": "Unknown job"}})
 def get_job(job_id: str, request: Request, principal: PrincipalDep):
-    return _job_response(jobs.job_json(visible_job(request.app.state.db, job_id, principal)))
+    return _job_response(job_document.job_json(visible_job(request.app.state.db, job_id, principal)))
 
 
 @router.get("/{job_id}/result", response_model=JobResult, responses={
@@ -134,4 +134,4 @@ def cancel_job(job_id: str, db: DatabaseDep, principal: PrincipalDep):
     job = jobs.request_cancel(db, job_id)
     if job is None:
         raise not_found(job_id)
-    return _job_response(jobs.job_json(job), status_code=202)
+    return _job_response(job_document.job_json(job), status_code=202)

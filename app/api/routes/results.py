@@ -15,7 +15,7 @@ from fastapi import APIRouter, Header, HTTPException, Query
 from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import HTMLResponse, PlainTextResponse, Response
 
-from app.service import jobs
+from app.service import job_document, jobs
 from app.api.access import PrincipalDep, visible_job
 from app.api.deps import DatabaseDep
 from app.results import plots as plot_defs
@@ -133,7 +133,7 @@ async def get_report(job_id: str, db: DatabaseDep, principal: PrincipalDep,
         svgs = [(p.title, _cached((job_id, p.name, "svg"), lambda p=p: plot_defs.render(
             p, result=result, params=job.params, title=_title(job), fmt="svg")).decode())
             for p in plot_defs.plots_for(job.kind, result)]
-        return render_report(job=jobs.job_to_dict(job), result=result, key_numbers=key_numbers(job.kind, result),
+        return render_report(job=job_document.job_to_dict(job), result=result, key_numbers=key_numbers(job.kind, result),
                              headlines=headlines(job.kind, result, job.params),
                              svgs=svgs).encode()
 
