@@ -16,6 +16,7 @@ pytestmark = [pytest.mark.integration, pytest.mark.faults]
 # was the heavy job until it finished in under 25 s and voided the scenario.)
 HEAVY = {"kind": "midcourse", "preset": "upper-stage-two-corrections",
          "params": {"population": 1000, "generations": 5000}}
+WAIT_S = 300.0
 
 
 def _wait(stack, job_id: str, statuses: tuple[str, ...], timeout: float) -> dict:
@@ -36,10 +37,12 @@ def test_a_quick_job_finishes_while_every_heavy_slot_is_busy(stack):
         r = stack.submit(HEAVY)
         assert r.status_code == 202, r.text
         heavy.append(r.json()["id"])
-    assert _wait(stack, heavy[0], ("running",), 90)["status"] == "running"
+    # Waits for states, bounded generously (WAIT_S): what the test asserts is the order of states (the quick
+    # jobs done while the heavy slot is still busy), which a slow machine does not change, not a speed.
+    assert _wait(stack, heavy[0], ("running",), WAIT_S)["status"] == "running"
     t0 = time.monotonic()
     quick = [stack.submit().json()["id"] for _ in range(3)]
-    jobs, waited_s = stack.wait_final(quick, timeout=90)
+    jobs, _ = stack.wait_final(quick, timeout=WAIT_S)
     during = stack.statuses(heavy)
     report("quick-reserved", quick_succeeded=sum(j["status"] == "succeeded" for j in jobs.values()),
            heavy_states="/".join(during[h]["status"] for h in heavy), quick_done_s=time.monotonic() - t0)
@@ -48,5 +51,4 @@ def test_a_quick_job_finishes_while_every_heavy_slot_is_busy(stack):
     assert [during[h]["status"] for h in heavy] == ["running", "queued"], during
     for h in heavy:
         stack.client.post(f"/v1/jobs/{h}/cancel")
-    assert all(_wait(stack, h, ("cancelled", "failed", "succeeded"), 60)["status"] == "cancelled" for h in heavy)
-    assert waited_s < 90
+    assert all(_wait(stack, h, ("cancelled", "failed", "succeeded"), WAIT_S)["status"] == "cancelled" for h in heavy)
