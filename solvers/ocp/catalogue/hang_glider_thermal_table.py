@@ -1,7 +1,11 @@
 """COPS 3.0's hang glider with the thermal updraft given as a table instead of a formula."""
 from __future__ import annotations
 
+import copy
 import math
+from typing import Any
+
+from solvers.ocp.catalogue.hang_glider import HANG_GLIDER
 
 NAME = "hang-glider-thermal-table"
 
@@ -10,35 +14,15 @@ NAME = "hang-glider-thermal-table"
 _XS = [10.0 * i for i in range(151)]
 _UA = [2.5 * (1 - (x / 100.0 - 2.5) ** 2) * math.exp(-((x / 100.0 - 2.5) ** 2)) for x in _XS]
 
-# The hang-glider preset's problem (solvers/ocp/cases.py), restated here rather than imported: the
-# preset list imports this package, so importing it back would make a cycle.
-PARAMS = {
-    "title": "Hang glider through a thermal given as a table (COPS 3.0 problem 11)",
-    "constants": {"mass": 100.0, "g": 9.81, "c0": 0.034, "c1": 0.069662, "S": 14.0, "rho": 1.13},
-    "tables": {"updraft": {"axes": [_XS], "values": _UA}},
-    "states": [{"name": "x", "initial": 0.0, "lower": 0.0, "upper": 1500.0, "scale": 1000.0, "unit": "m"},
-               {"name": "y", "initial": 1000.0, "final": 900.0, "scale": 1000.0, "unit": "m"},
-               {"name": "vx", "initial": 13.2275675, "final": 13.2275675, "lower": 0.0, "scale": 10.0,
-                "unit": "m/s"},
-               {"name": "vy", "initial": -1.28750052, "final": -1.28750052, "scale": 1.0, "unit": "m/s"}],
-    "controls": [{"name": "CL", "lower": 0.0, "upper": 1.4}],
-    "time": {"initial": 0.0, "final": None, "final_lower": 10.0, "final_upper": 200.0, "final_guess": 100.0},
-    "expressions": {
-        "ua": "updraft(x)",
-        "Vy": "vy - ua",
-        "vr": "sqrt(vx**2 + Vy**2)",
-        "CD": "c0 + c1*CL**2",
-        "drag": "0.5*CD*rho*S*vr**2",
-        "lift": "0.5*CL*rho*S*vr**2",
-    },
-    "dynamics": {"x": "vx", "y": "vy",
-                 "vx": "(-lift*Vy/vr - drag*vx/vr)/mass",
-                 "vy": "(lift*vx/vr - drag*Vy/vr - mass*g)/mass"},
-    "objective": {"sense": "maximize", "expr": "final(x)"},
-    "transcription": {"method": "multiple_shooting", "intervals": 100, "control": "linear", "substeps": 2},
-    "guess": {"states": {"x": [0.0, 1250.0], "vx": [13.2275675, 13.2275675], "vy": [-1.28750052, -1.28750052]},
-              "controls": {"CL": [0.7, 0.7]}},
-}
+# The hang-glider problem (solvers/ocp/catalogue/hang_glider.py) with the formula's constants and its
+# X and ua expressions replaced by the table, and x kept within the table's axis.
+PARAMS: dict[str, Any] = copy.deepcopy(HANG_GLIDER)
+PARAMS["title"] = "Hang glider through a thermal given as a table (COPS 3.0 problem 11)"
+PARAMS["constants"] = {k: v for k, v in PARAMS["constants"].items() if k not in ("uc", "r0", "um")}
+PARAMS["tables"] = {"updraft": {"axes": [_XS], "values": _UA}}
+PARAMS["states"][0]["upper"] = _XS[-1]
+PARAMS["expressions"] = {"ua": "updraft(x)",
+                         **{k: v for k, v in PARAMS["expressions"].items() if k not in ("X", "ua")}}
 
 PRESET = {
     "description": "Hang glider, maximum range through a thermal updraft, with the updraft as tabulated data: "
