@@ -17,10 +17,11 @@ class RecordingContext(InProcessContext):
 START_TIMEOUT_S = 300.0
 
 
-def wait_serving(url: str, *, proc, what: str, log=None, timeout: float = START_TIMEOUT_S):
-    """The first answer of ``url`` (any HTTP status) from the process ``proc`` (a ``subprocess.Popen``),
-    polled until ``timeout``; an assertion naming ``what`` (and the tail of ``log``, a path) when the process
-    exits first or the time runs out."""
+def wait_serving(url: str, *, proc, what: str, log=None, status: int | None = None,
+                 timeout: float = START_TIMEOUT_S):
+    """The first answer of ``url`` (of HTTP ``status`` if given, else any) from the process ``proc`` (a
+    ``subprocess.Popen``), polled until ``timeout``; an assertion naming ``what`` (and the tail of ``log``, a
+    path) when the process exits first or the time runs out."""
     import time
     from pathlib import Path
 
@@ -33,7 +34,9 @@ def wait_serving(url: str, *, proc, what: str, log=None, timeout: float = START_
     while True:
         assert proc.poll() is None, f"{what} exited with {proc.returncode} before answering\n{tail()}"
         try:
-            return httpx.get(url, timeout=5)
+            r = httpx.get(url, timeout=5)
+            if status is None or r.status_code == status:
+                return r
         except httpx.HTTPError:
             pass
         assert time.monotonic() < deadline, f"{what} did not answer {url} within {timeout:.0f} s\n{tail()}"

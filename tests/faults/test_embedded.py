@@ -15,6 +15,7 @@ import pytest
 
 from tests.faults.conftest import QUICK, report
 from tests.integration.live import free_port
+from tests.support import wait_serving
 
 pytestmark = [pytest.mark.integration, pytest.mark.faults]
 ROOT = Path(__file__).resolve().parents[2]
@@ -49,17 +50,8 @@ def _serve(data: Path, port: int) -> subprocess.Popen:
                             stdout=open(data.parent / "serve.log", "ab"), stderr=subprocess.STDOUT)
 
 
-def _wait_up(url: str, proc: subprocess.Popen, timeout: float = 60) -> None:
-    deadline = time.monotonic() + timeout
-    while True:
-        assert proc.poll() is None, "trajlab serve exited"
-        try:
-            if httpx.get(url + "/healthz", timeout=1).status_code == 200:
-                return
-        except httpx.HTTPError:
-            pass
-        assert time.monotonic() < deadline, "trajlab serve did not come up"
-        time.sleep(0.2)
+def _wait_up(url: str, proc: subprocess.Popen) -> None:
+    wait_serving(url + "/healthz", proc=proc, what="trajlab serve", status=200)
 
 
 def _run_jobs(url: str, n: int, timeout: float = 120) -> list[dict]:

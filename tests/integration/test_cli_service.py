@@ -15,6 +15,7 @@ import httpx
 import pytest
 
 from tests.integration.live import free_port
+from tests.support import wait_serving
 
 pytestmark = pytest.mark.integration
 ROOT = Path(__file__).resolve().parents[2]
@@ -39,17 +40,8 @@ def served(tmp_path_factory):
         proc = subprocess.Popen([sys.executable, "-m", "app.cli.commands", "serve", "--port", str(port)], cwd=home,
                                 env=env, stdout=log, stderr=subprocess.STDOUT)
     url = f"http://127.0.0.1:{port}"
-    deadline = time.monotonic() + 120
     try:
-        while True:
-            assert proc.poll() is None, (home / "serve.log").read_text()[-3000:]
-            try:
-                if httpx.get(url + "/healthz", timeout=1).status_code == 200:
-                    break
-            except httpx.HTTPError:
-                pass
-            assert time.monotonic() < deadline, "trajlab serve did not come up"
-            time.sleep(0.3)
+        wait_serving(url + "/healthz", proc=proc, what="trajlab serve", log=home / "serve.log", status=200)
         yield {"url": url, "data": data, "home": home}
     finally:
         proc.terminate()

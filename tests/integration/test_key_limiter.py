@@ -15,7 +15,6 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
-import time
 from contextlib import ExitStack, contextmanager
 
 import httpx
@@ -27,6 +26,7 @@ from app.runtime.db import get_database
 from app.runtime.migrate import upgrade
 from tests.integration.conftest import REDIS_URL, ROOT, claim_redis_db
 from tests.integration.live import free_port, stop_group
+from tests.support import wait_serving
 
 pytestmark = pytest.mark.integration
 
@@ -63,16 +63,7 @@ def api_process(pg_url: str, redis_url: str, tmp_path, **env):
                                 start_new_session=True)
     base = f"http://127.0.0.1:{port}"
     try:
-        deadline = time.monotonic() + 90
-        while True:
-            assert proc.poll() is None, (tmp_path / f"api-{port}.log").read_text()
-            try:
-                if httpx.get(base + "/healthz", timeout=2).status_code == 200:
-                    break
-            except httpx.HTTPError:
-                pass
-            assert time.monotonic() < deadline, "trajlab api did not answer within 90 s"
-            time.sleep(0.2)
+        wait_serving(base + "/healthz", proc=proc, what="trajlab api", log=tmp_path / f"api-{port}.log", status=200)
         yield base
     finally:
         stop_group(proc)
