@@ -69,6 +69,22 @@ def hamiltonian(*, nlp, att, lam: np.ndarray, U: np.ndarray, t_nodes: np.ndarray
     return H, float(np.max(size, initial=0.0))
 
 
+def path_inside(*, fns, phase, t: np.ndarray, X: np.ndarray, U: np.ndarray, att, c, t0: float) -> np.ndarray:
+    """Where every path constraint is strictly inside its bounds (by INSIDE of their size) at the samples ``t``:
+    an active path constraint's multiplier is not in H, so the checks judge H only there."""
+    keep = np.ones(t.size, bool)
+    if not fns.npath:
+        return keep
+    P = np.asarray(fns.path.map(t.size)(t[None, :], X, U, att.theta, c, t0, att.tf))
+    for j, k in enumerate(phase.path):
+        span = max(abs(k.lower or 0.0), abs(k.upper or 0.0), 1e-300)
+        if k.lower is not None:
+            keep &= P[j] > k.lower + INSIDE * span
+        if k.upper is not None:
+            keep &= P[j] < k.upper - INSIDE * span
+    return keep
+
+
 def minimum_principle(*, problem, fns, nlp_grid, sign: float, att, lam: np.ndarray, t_nodes: np.ndarray, c, t0: float,
                       dense: tuple[np.ndarray, np.ndarray, np.ndarray]) -> tuple[float, float, int] | None:
     """The worst gap ``H(u used) - min H`` over the box of the controls, its time and the samples checked.
@@ -88,15 +104,7 @@ def minimum_principle(*, problem, fns, nlp_grid, sign: float, att, lam: np.ndarr
     ph = problem.phase
     td, xd, ud = (np.asarray(a, float) for a in dense)
     nx, nu = fns.nx, fns.nu
-    keep = np.ones(td.size, bool)
-    if fns.npath:
-        P = np.asarray(fns.path.map(td.size)(td[None, :], xd, ud, att.theta, c, t0, att.tf))
-        for j, k in enumerate(ph.path):
-            span = max(abs(k.lower or 0.0), abs(k.upper or 0.0), 1e-300)
-            if k.lower is not None:
-                keep &= P[j] > k.lower + INSIDE * span
-            if k.upper is not None:
-                keep &= P[j] < k.upper - INSIDE * span
+    keep = path_inside(fns=fns, phase=ph, t=td, X=xd, U=ud, att=att, c=c, t0=t0)
     if not keep.any():
         return None
     td, xd, ud = td[keep], xd[:, keep], ud[:, keep]
@@ -193,14 +201,8 @@ def checks(*, problem, nlp, att, lam, U, t_nodes, c, t0: float, H: np.ndarray, s
                 inside &= U[i] > k.lower + INSIDE * span
             if k.upper is not None:
                 inside &= U[i] < k.upper - INSIDE * span
-        if fns.npath:           # an active path constraint's multiplier is not in H: its nodes are left out
-            P = np.asarray(fns.path.map(t_nodes.size)(t_nodes[None, :], att.X, U, att.theta, c, t0, att.tf))
-            for j, k in enumerate(ph.path):
-                span = max(abs(k.lower or 0.0), abs(k.upper or 0.0), 1e-300)
-                if k.lower is not None:
-                    inside &= P[j] > k.lower + INSIDE * span
-                if k.upper is not None:
-                    inside &= P[j] < k.upper - INSIDE * span
+        # an active path constraint's multiplier is not in H: its nodes are left out
+        inside &= path_inside(fns=fns, phase=ph, t=t_nodes, X=att.X, U=U, att=att, c=c, t0=t0)
         # a node next to one on a bound shares an interval with it (its controls interpolate into the arc)
         own = inside.copy()
         inside[1:] &= own[:-1]
