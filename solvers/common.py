@@ -28,6 +28,7 @@ class Outcome(str, Enum):
     LIMIT_NOT_HELD = "limit_not_held"  # converged, but a path limit is exceeded between the nodes
     TERMINAL_NOT_HELD = "terminal_not_held"  # converged, but the re-propagation misses a final value
     ACCURACY_NOT_REACHED = "accuracy_not_reached"  # mesh refinement ran out of rounds short of the accuracy
+    NUMERICAL_OVERFLOW = "numerical_overflow"  # the problem's own numbers overflowed or gave NaN (ocp)
     FAILED = "failed"                # anything else (bad problem data detected late, numerical error)
 
 

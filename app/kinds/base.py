@@ -279,6 +279,7 @@ def outcome_from_status(status, result: dict | None) -> RunOutcome:
         Outcome.LIMIT_NOT_HELD: "limit_not_held",
         Outcome.TERMINAL_NOT_HELD: "terminal_not_held",
         Outcome.ACCURACY_NOT_REACHED: "accuracy_not_reached",
+        Outcome.NUMERICAL_OVERFLOW: "numerical_overflow",
     }.get(status.outcome, "solver_failed")  # Outcome.FAILED: the solver's error, not a crash of ours (internal)
     msg = status.message or status.solver_status
     if status.solver_status and status.solver_status not in msg:

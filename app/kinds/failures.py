@@ -25,6 +25,10 @@ WHAT = {
                             "transcription's error below the requested accuracy within its rounds.",
     "not_robust": "The robust design did not keep the heating limit in the share of Monte Carlo samples the "
                   "confirmation accepts.",
+    "numerical_overflow": "The problem's own expressions, or the transcription's integration of its dynamics, "
+                          "gave an overflow or NaN (IPOPT's Invalid_Number_Detected) at the guess or an iterate, "
+                          "and a guess built by integrating the dynamics did not avoid it. The problem, its "
+                          "guess or its transcription has to change; trajlab did not fail.",
     "time_limit": "The job ran out of its time limit before the solver finished.",
     "resource_limit": "The job needed more memory than one job may hold (TRAJLAB_JOB_MEMORY_MB); it was "
                       "stopped, and is not retried.",
@@ -73,6 +77,14 @@ ADVICE = {
     "not_robust": [
         "Raise heat_margin or k_constraint so the robust design keeps a wider margin from the limit.",
         "Allow more confirmation rounds (confirmation.max_rounds) or more samples for a tighter estimate.",
+    ],
+    "numerical_overflow": [
+        "Read the message: it says whether the overflow came at the first guess or at a later iterate.",
+        "Bound the states an expression depends on away from where it overflows or is undefined (a division "
+        "by a state that reaches zero, a sqrt or log of a negative value, exp of a large one), and give each "
+        "state a scale.",
+        "With multiple shooting, shorter RK4 steps (more intervals or substeps) or collocation (LGL) keep fast "
+        "or stiff dynamics from overflowing; or start from a better guess (initial_guess.from_job).",
     ],
     "time_limit": [
         "Make the problem smaller (fewer intervals, samples or generations) or raise the kind's time limit "

@@ -53,6 +53,9 @@ def phase_names(raw_phases: list) -> list[str]:
         if not isinstance(nm, str) or not _PHASE_NAME.match(nm) or len(nm) > 64:
             raise OcpInputError(f"params.phases.{i}.name", "a phase name is required: letters, digits, _ and -, "
                                                            "not starting with a digit, at most 64 characters")
+        if nm.startswith("_"):   # as for every other name (solvers.ocp.readers.Names): Python's own live there
+            raise OcpInputError(f"params.phases.{i}.name", f"'{nm}' is reserved: a name cannot begin with an "
+                                                           "underscore")
         if nm in names:
             raise OcpInputError(f"params.phases.{i}.name", f"duplicated phase name '{nm}' (also phase "
                                                            f"{names.index(nm)})")

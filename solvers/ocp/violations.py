@@ -148,6 +148,8 @@ def name_them(status: SolveStatus, problem, nlp, checks, nums) -> None:
     status.details = {**status.details, "violations": [v.as_dict() for v in found]}
     if status.solver_status == INVALID_NUMBER:
         at = "the first guess" if status.iterations == 0 else f"iteration {status.iterations}"
+        # the user's expressions (or their integration) overflowed: theirs to change, not the solver's fault
+        status.outcome = Outcome.NUMERICAL_OVERFLOW
         status.message = (f"IPOPT: {INVALID_NUMBER}: the problem's expressions, or the transcription's "
                           f"integration of its dynamics, gave an overflow or NaN at {at}")
         if found:

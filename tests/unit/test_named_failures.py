@@ -10,7 +10,7 @@ from app.kinds.base import InProcessContext, JobFailure
 from app.service.params import resolve_params
 
 
-def test_a_solver_failure_is_solver_failed_not_internal():
+def test_an_overflow_of_the_users_problem_is_numerical_overflow_not_internal():
     # sqrt of a state that starts at -1: IPOPT meets NaN at its first evaluation (a real solve, no mock)
     params = resolve_params(KINDS["ocp"], None, {
         "states": [{"name": "x", "initial": -1.0, "final": 1.0}],
@@ -20,7 +20,7 @@ def test_a_solver_failure_is_solver_failed_not_internal():
     spec = KINDS["ocp"]
     outcome = spec.run(spec.params_model.model_validate(params), InProcessContext())
     assert outcome.status == "failed"
-    assert outcome.error["code"] == "solver_failed"
+    assert outcome.error["code"] == "numerical_overflow"   # the user's numbers (issue 35 item 4), not a bug
     assert outcome.error["details"]["solver_status"] == "Invalid_Number_Detected"
 
 

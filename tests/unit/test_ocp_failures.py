@@ -45,8 +45,8 @@ def fail(body: dict) -> dict:
 def test_an_overflowing_guess_is_the_solvers_failure_with_the_methods_advice():
     error = fail(HYPERSENSITIVE_LONG)
     assert error["details"]["solver_status"] == "Invalid_Number_Detected"
-    # the solver's failure on the user's problem, not a bug of trajlab's (the shared WHAT says which)
-    assert error["code"] == "solver_failed", error
+    # the user's problem overflowed: a code of its own, not the solver's nor a bug of trajlab's
+    assert error["code"] == "numerical_overflow", error
     assert "overflow or NaN at the first guess" in error["message"]
     explained = explain(error)
     assert explained is not None

@@ -63,6 +63,14 @@ def test_duplicate_phase_names():
     fails(p, "params.phases.2.name", "duplicated phase name 'boost'")
 
 
+def test_a_phase_name_beginning_with_an_underscore_is_reserved():
+    # as every other declared name (issue 36 item 5: __class__ was accepted as a state)
+    for name in ("__class__", "_coast"):
+        p = goddard()
+        p["phases"][2]["name"] = name
+        fails(p, "params.phases.2.name", f"'{name}' is reserved: a name cannot begin with an underscore")
+
+
 def test_unknown_phase_and_state_in_events_name_the_closest():
     assert "did you mean 'coast'" in fails(goddard(objective={"sense": "maximize", "expr": 'final(h, "cost")'}),
                                            "params.objective.expr", "unknown phase 'cost'")
