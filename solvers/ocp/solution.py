@@ -62,6 +62,11 @@ def solution_of(problem: OcpProblem, *, nlp, res, status: SolveStatus, checks: l
                 notes.append(f"{c.label}control {name} leaves its bounds [{e['lower']}, {e['upper']}] between the "
                              f"nodes (worst {e['worst_value']:.4g} at t = {e['worst_t']:.4g}): LGL holds a bound at "
                              "the nodes only; refine, or use multiple shooting for a control that saturates")
+    recovery = status.details.get("guess_recovery")
+    if recovery and recovery["status"] != "Invalid_Number_Detected":
+        notes.append(f"the first guess overflowed (IPOPT Invalid_Number_Detected at iteration "
+                     f"{recovery['first_iterations']}); solved from a guess flown from the dynamics with the "
+                     "guessed controls clipped to their bounds (solvers.ocp.flown)")
     if rounds:
         held = all(c.limits_held for c in checks)
         notes.append(f"path limits tightened on the intervals where the dense re-propagation exceeded "

@@ -21,6 +21,7 @@ import numpy as np
 
 from solvers.common import Outcome, ProgressFn, StopFn
 from solvers.ocp.check import AGREEMENT_TOLERANCE, check_phase
+from solvers.ocp.flown import flown_guess, rk4_stiffness
 from solvers.ocp.guess import guess_of, stored_phases
 from solvers.ocp.limits import MAX_ROUNDS, Margins, worst_excess
 from solvers.ocp.problem import OcpProblem
@@ -29,7 +30,7 @@ from solvers.ocp.scaling import numbers_of
 from solvers.ocp.solution import OcpSolution, solution_of
 from solvers.ocp.terminal import TERMINAL_ROUNDS, grid_words
 from solvers.ocp.trajectory import TrajectoryNLP
-from solvers.ocp.violations import name_them
+from solvers.ocp.violations import INVALID_NUMBER, name_them
 
 __all__ = ["AGREEMENT_TOLERANCE", "TERMINAL_ROUNDS", "WARM_IPOPT", "OcpSolution", "OcpSolve", "solve"]
 
@@ -37,6 +38,8 @@ __all__ = ["AGREEMENT_TOLERANCE", "TERMINAL_ROUNDS", "WARM_IPOPT", "OcpSolution"
 # small pushes off the bounds keep IPOPT there (Betts shuttle 100 -> 150 intervals: 4 iterations
 # instead of 19; brachistochrone 50 -> 80: 4 instead of 11 with IPOPT's defaults).
 WARM_IPOPT = {"mu_init": 1e-4, "bound_push": 1e-6, "bound_frac": 1e-6}
+# An overflow this early is the guess's doing (the straight lines, not where IPOPT went): fly one instead.
+EARLY_ITERATIONS = 3
 
 
 class Placed:
@@ -115,6 +118,8 @@ class OcpSolve:
         res = nlp.solver.solve(x0=placed.z0, lbx=placed.lbz, ubx=placed.ubz, lbg=placed.lbg, ubg=placed.ubg,
                                p=placed.p, on_progress=on_progress, should_stop=self.should_stop,
                                progress_span=(0.02, 0.9))
+        if res.status.solver_status == INVALID_NUMBER and res.status.iterations <= EARLY_ITERATIONS:
+            nlp, placed, res = self.fly_first(problem, nlp, initial_guess, res, progress)
         status = res.status
         first = (status.iterations, status.solve_time_s)
         checks = self.check(problem, nlp, placed, res)
@@ -132,6 +137,32 @@ class OcpSolve:
         _judge(status, checks, rounds, problem)
         progress(1.0, status.outcome.value)
         return solution_of(problem, nlp=nlp, res=res, status=status, checks=checks, rounds=rounds)
+
+    def fly_first(self, problem: OcpProblem, nlp: TrajectoryNLP, initial_guess: dict | None, res, progress):
+        """An overflow at the guess or in the first iterates: once more from the dynamics flown from the
+        guess (:mod:`solvers.ocp.flown`), with IPOPT's cold start; ``(nlp, placed, res)`` of that solve,
+        or of the first when that overflows too (its message then says what the flight showed)."""
+        first = res
+        progress(0.05, "the guess overflowed: flying the dynamics for a better one")
+        cold = TrajectoryNLP(problem, ipopt=self.ipopt)
+        flown, notes = flown_guess(problem, cold, initial_guess)
+        placed = Placed(problem, cold, flown)
+        assert cold.solver is not None  # a TrajectoryNLP is built with its solver
+        again = cold.solver.solve(x0=placed.z0, lbx=placed.lbz, ubx=placed.ubz, lbg=placed.lbg, ubg=placed.ubg,
+                                  p=placed.p, should_stop=self.should_stop, label="from the flown guess")
+        stopped = [n for n in notes if n["stopped_at_t"] is not None]
+        recovery = {"guess": "flown", "first_iterations": first.status.iterations,
+                    "flight_stopped": stopped, "status": again.status.solver_status}
+        if again.status.solver_status != INVALID_NUMBER:
+            again.status.iterations += first.status.iterations
+            again.status.details = {**again.status.details, "guess_recovery": recovery}
+            return cold, placed, again
+        stiff = rk4_stiffness(problem, cold, flown)
+        if stiff is not None:
+            recovery["rk4_stiffness"] = stiff
+        again.status.details = {**again.status.details, "guess_recovery": recovery}
+        again.status.iterations += first.status.iterations
+        return cold, placed, again
 
     def check(self, problem: OcpProblem, nlp: TrajectoryNLP, placed: Placed, res) -> list:
         """Every phase of the answer ``res`` checked on its own (:func:`solvers.ocp.check.check_phase`)."""

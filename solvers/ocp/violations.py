@@ -11,10 +11,13 @@ a violation too: it names the entry that cannot be evaluated.
 """
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass
 
 import numpy as np
 
+from solvers.ocp.flown import RK4_STABILITY
 from solvers.common import Outcome, SolveStatus
 from solvers.ocp.phase import positive_scale
 
@@ -152,9 +155,33 @@ def name_them(status: SolveStatus, problem, nlp, checks, nums) -> None:
         status.outcome = Outcome.NUMERICAL_OVERFLOW
         status.message = (f"IPOPT: {INVALID_NUMBER}: the problem's expressions, or the transcription's "
                           f"integration of its dynamics, gave an overflow or NaN at {at}")
+        status.message += recovery_words(status.details.get("guess_recovery"))
         if found:
             status.message += "; " + words(found)
         return
     text = words(found, worst_defect(problem, nlp, checks))
     if text:
         status.message = f"IPOPT: {status.solver_status}; violated: {text}"
+
+
+def recovery_words(recovery: dict | None) -> str:
+    """What the second first guess (:mod:`solvers.ocp.flown`) showed, for an overflow's message."""
+    if not recovery:
+        return ""
+    out = ("; a guess flown from the dynamics (LSODA from the guessed initial state, controls clipped to "
+           "their bounds") 
+    stopped = recovery.get("flight_stopped") or []
+    if stopped:
+        where = ", ".join(f"t = {n['stopped_at_t']:.6g}" + (f" in phase {n['phase']}" if n["phase"] else "")
+                          for n in stopped)
+        out += f", stopped before blowing up at {where}"
+    out += ") overflowed too"
+    stiff = recovery.get("rk4_stiffness")
+    if stiff and stiff["h_lambda"] > RK4_STABILITY:
+        phase = f" in phase {stiff['phase']}" if stiff["phase"] else ""
+        steps = int(math.ceil(stiff["h_lambda"] / RK4_STABILITY))
+        out += (f": the multiple shooting's RK4 steps of {stiff['step']:.4g} s meet a rate |lambda| = "
+                f"{stiff['rate']:.4g} 1/s of the dynamics at t = {stiff['t']:.6g}{phase} (h |lambda| = "
+                f"{stiff['h_lambda']:.4g}, past RK4's stability limit {RK4_STABILITY}): steps at least "
+                f"{steps} times shorter there (transcription.intervals, substeps) or LGL collocation")
+    return out

@@ -178,7 +178,7 @@ def test_non_finite_dynamics_fail_as_a_value_quickly():
               "time": {"initial": 0.0, "final": 2.0}, "dynamics": {"x": "sqrt(x) + u"},
               "objective": {"sense": "minimize", "integrand": "u**2"}, "transcription": {"intervals": 10}}
     sol = run(params)
-    assert sol.status.outcome is Outcome.FAILED
+    assert sol.status.outcome is Outcome.NUMERICAL_OVERFLOW
     assert sol.status.solver_status == "Invalid_Number_Detected"
     assert not sol.verification["ok"]
 
