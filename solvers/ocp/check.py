@@ -1,5 +1,7 @@
 """One phase of an answer checked on its own, the same way whether it is the whole problem or one of
-several: its controls re-flown from its own solved initial state (:mod:`solvers.ocp.verify`), its
+several: its controls re-flown from its own solved initial state, or interval by interval from its nodes
+when its dynamics amplify errors past what that flight can follow (:mod:`solvers.ocp.growth`,
+:mod:`solvers.ocp.verify`), its
 path limits on the dense grid, its terminal conditions on the re-flight (:mod:`solvers.ocp.terminal`),
 the agreement of the re-flown states with the answer, and the phase's block of the report (times,
 ends, trajectory at the nodes with the named expressions, verification, transcription).
@@ -14,6 +16,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from solvers.ocp.growth import INTERVALS, growth
 from solvers.ocp.optimality import checks as optimality_checks
 from solvers.ocp.optimality import costates, hamiltonian
 from solvers.ocp.scaling import Attempt, Numbers
@@ -73,11 +76,13 @@ def check_phase(block, num: Numbers, z: np.ndarray, *, t0: float, agreement: flo
     t_nodes = t0 + (att.tf - t0) * grid.tau()
     U = nlp.node_controls(att.U)
     u_bounds = [(k.lower, k.upper) for k in ph.controls]
+    amp = growth(fns=fns, t_nodes=t_nodes, X=att.X, U=U, theta=att.theta, c=c, t0=t0, tf=att.tf, agreement=agreement)
     ver = verify(fns=fns, grid=grid, t_nodes=t_nodes, X=att.X, U=U, theta=att.theta, c=c, t0=t0, tf=att.tf,
                  state_names=ph.state_names, x_scale=num.x_scale,
                  path_bounds=[(k.lower, k.upper) for k in ph.path],
                  path_names=[k.name for k in ph.path], path_scale=num.path_scale,
-                 control_names=[k.name for k in ph.controls], control_bounds=u_bounds)
+                 control_names=[k.name for k in ph.controls], control_bounds=u_bounds,
+                 restart=amp.mode == INTERVALS)
     terminal = terminal_checks(problem=prob, fns=fns, x_scale=num.x_scale, c=c, theta=att.theta, tf=att.tf,
                                x=ver.x, u=ver.u) if ver.ok else {}
     held = all(v["held"] for v in terminal.values())
@@ -85,7 +90,7 @@ def check_phase(block, num: Numbers, z: np.ndarray, *, t0: float, agreement: flo
     agrees = bool(ver.ok and worst <= agreement)
     verification = ver.as_dict()
     verification.update(agrees=agrees, agreement_tolerance=agreement, terminal=terminal, terminal_held=held,
-                        terminal_tolerance=TERMINAL_TOLERANCE)
+                        terminal_tolerance=TERMINAL_TOLERANCE, mode_reason=amp.reason(), growth=amp.as_dict())
     traj = {"t": t_nodes}
     traj.update({s.name: att.X[i] for i, s in enumerate(ph.states)})
     traj.update({k.name: U[i] for i, k in enumerate(ph.controls)})

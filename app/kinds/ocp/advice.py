@@ -59,11 +59,51 @@ def _other_method(problem) -> list[str]:
     return []
 
 
-def advice(code: str, details: dict, problem) -> list[str] | None:
-    """The lines of "what to try" for an ``ocp`` failure with error ``code`` and ``details`` on ``problem``
-    (:class:`solvers.ocp.problem.OcpProblem`); None where the shared advice of the code fits as it is."""
+def amplifying(result: dict | None) -> dict | None:
+    """The growth figure of the first phase whose answer was verified interval by interval because its
+    dynamics amplify errors (``verification.mode``), else None."""
+    blocks = [result or {}] + list((result or {}).get("phases") or [])
+    for b in blocks:
+        ver = b.get("verification") if isinstance(b, dict) else None
+        if isinstance(ver, dict) and ver.get("mode") == "interval_by_interval":
+            return ver.get("growth") or {}
+    return None
+
+
+def _amplify(growth: dict) -> str:
+    g = growth.get("exponent")
+    figure = f"by about e^{g:.3g}" if isinstance(g, (int, float)) else "strongly"
+    return (f"The dynamics amplify errors {figure} over the phase (verification.growth), so the answer was "
+            "verified interval by interval from its nodes (verification.mode); a flight of these controls from "
+            "the initial state diverges whatever the grid. Refining helps only where an interval's own defect "
+            "is large: set accuracy, or add transcription.intervals there.")
+
+
+def _reflight_failed() -> list[str]:
+    return ["The independent re-flight of the answer's controls stopped at the interval the message names: "
+            "an expression of the dynamics is not finite there on the re-flown states (a division by a state "
+            "that reaches zero, a sqrt or log of a negative value, exp of a large one). Bound those states "
+            "(states[].lower, upper) so the answer keeps away from there.",
+            "Add transcription.intervals, or set accuracy, so the answer between the nodes is what the "
+            "re-flight flies."]
+
+
+def advice(code: str, details: dict, problem, *, message: str = "", result: dict | None = None) -> list[str] | None:
+    """The lines of "what to try" for an ``ocp`` failure with error ``code``, ``message`` and ``details`` on
+    ``problem`` (:class:`solvers.ocp.problem.OcpProblem`), its stored ``result`` read for the verification's
+    mode; None where the shared advice of the code fits as it is."""
     if details.get("solver_status") == INVALID_NUMBER:
         return _invalid_number(problem)
+    if code == "solver_failed" and "re-propagation failed" in message:
+        return _reflight_failed()
+    lines = _by_code(code, details, problem)
+    growth = amplifying(result)
+    if growth is not None and code in ("terminal_not_held", "accuracy_not_reached", "limit_not_held"):
+        return [_amplify(growth)] + (lines or [])
+    return lines
+
+
+def _by_code(code: str, details: dict, problem) -> list[str] | None:
     if code in ("infeasible", "not_converged"):
         extra = [_BETTER_GUESS] + _other_method(problem) if code == "not_converged" else []
         return _violated(problem, details) + extra

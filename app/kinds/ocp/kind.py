@@ -62,7 +62,8 @@ def run(params: OcpParams, ctx: JobContext) -> RunOutcome:
     outcome = outcome_from_status(sol.status, result)
     if outcome.error is not None:           # what to try, by this problem's cause and transcription
         details = outcome.error.get("details") or {}
-        lines = advice(outcome.error["code"], details, problem)
+        lines = advice(outcome.error["code"], details, problem, message=outcome.error.get("message") or "",
+                       result=result)
         if lines:
             outcome.error["details"] = {**details, "advice": lines}
     return outcome

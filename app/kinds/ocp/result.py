@@ -145,10 +145,28 @@ class OcpResultOptimality(ResultModel):
     message: str | None = Field(None, description="Which conditions were checked and which failed")
 
 
+class OcpResultGrowth(ResultModel):
+    """How much the dynamics amplify an error along the answer (solvers/ocp/growth.py)."""
+
+    exponent: Num = Field(None, description="G = integral of the largest positive real part of the linearised "
+                          "dynamics' eigenvalues over the phase: errors grow by about e^G")
+    amplification: Num = Field(None, description="e^G (null past the largest double)")
+    max_real_eigenvalue: Num = Field(None, description="Largest real part of df/dx's eigenvalues at any node (1/s)")
+    duration_s: Num = Field(None, description="The phase's duration")
+    threshold_exponent: Num = Field(None, description="ln(agreement_tolerance / 1e-8): past it even an exact "
+                                    "answer's re-flight from t0 departs by more than the agreement")
+
+
 class OcpResultVerification(ResultModel):
     """The controls re-flown by an independent integrator on a dense grid, against the solution."""
 
     method: str | None = Field(None, description="Integrator and tolerances of the re-flight")
+    mode: Literal["from_t0", "interval_by_interval"] | None = Field(
+        None, description="from_t0: one flight from the initial state, the states' difference at every node; "
+        "interval_by_interval: dynamics that amplify errors past what that flight can follow (growth), so each "
+        "interval is re-flown from its own first node and its defect held to agreement_tolerance")
+    mode_reason: str | None = Field(None, description="Why this mode, with the growth figure")
+    growth: OcpResultGrowth | None = Field(None, description="How much the dynamics amplify errors along the answer")
     samples_per_interval: int | None = Field(None, description="Dense points per mesh interval")
     max_state_difference: dict[str, Num] | None = Field(
         None, description="state name -> largest |re-flown - solution| over the nodes (the state's unit)")
