@@ -230,6 +230,13 @@ class KindSpec:
     # Why a stored result of this kind cannot warm-start these resolved params, (result, params) -> reason
     # or None (app.service.warm_start: a 422 at the door); None: any succeeded job of the kind can.
     warm_start_misfit: Callable[[dict, dict], str | None] | None = None
+    # What a study charts against its swept value, (result, params) -> list[app.kinds.trade.TradeOutput]
+    # (key numbers with their labels and units; the rest stay in the trade table); None: every float key
+    # number, labelled by its name and the unit its suffix says.
+    trade_outputs: Callable[[dict, dict | None], list] | None = None
+    # The (label, unit) of a swept parameter, (params, dotted path) -> (label, unit), for paths whose name
+    # carries no unit suffix (app.kinds.trade.name_unit reads those); None: the suffix alone.
+    swept_label: Callable[[dict, str], tuple[str, str]] | None = None
 
 
 def json_float(x) -> float | None:

@@ -270,6 +270,7 @@ def test_key_numbers_plots_and_the_result_model_of_a_result():
     from app.results.plots import plots_for, render
 
     assert key_numbers(RESULT) == {"objective": 1.8016, "sense": "minimize", "tf": 1.8016, "iterations": 12,
+                                   "final.x": 10.0, "final.y": 5.0, "final.v": 9.9,
                                    "limits_held": True, "verification_agrees": True}
     names = [p.name for p in plots_for("ocp", RESULT)]
     assert names == ["t-x", "t-y", "t-v", "t-theta", "t-speed", "x-y"]

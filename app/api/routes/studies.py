@@ -10,7 +10,7 @@ from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import PlainTextResponse
 from pydantic import BaseModel, Field, model_validator
 
-from app.service import retention, studies, submit
+from app.service import retention, studies, study_chart, submit
 from app.api.access import Principal, PrincipalDep
 from app.service.recovery import publish_or_defer
 from app.api.deps import CeleryDep, DatabaseDep, SettingsDep
@@ -18,6 +18,7 @@ from app.kinds import KINDS, PRESETS
 from app.api.routes.results import forget
 from app.service.params import deep_merge
 from app.service.study_presets import STUDY_PRESETS
+from app.results.study_plot import render as study_plot_render
 
 router = APIRouter(prefix="/v1/studies", tags=["studies"])
 
@@ -210,37 +211,10 @@ def delete_study(study_id: str, db: DatabaseDep, principal: PrincipalDep) -> Res
 @router.get("/{study_id}/plot.{fmt}", responses={404: {"description": "Unknown study"},
                                                   200: {"content": {"image/png": {}, "image/svg+xml": {}}}})
 async def study_plot(study_id: str, fmt: Literal["png", "svg"], db: DatabaseDep, principal: PrincipalDep):
-    """The trade curve: each key number against the (first) swept value; failed points marked on the axis."""
+    """The trade curve: each output that varies (the kind's objective, named results and final time, with
+    units) against the (first) swept value; failed points marked on the axis; counts and booleans stay in
+    the table (app.service.study_chart)."""
     study = await run_in_threadpool(_visible, db, study_id, principal)
-    rows = await run_in_threadpool(studies.trade_table, db, study)
-    body = await run_in_threadpool(render_trade_curve, study, rows, fmt)
+    chart = await run_in_threadpool(study_chart.trade_chart, db, study)
+    body = await run_in_threadpool(study_plot_render, chart, fmt)
     return Response(body, media_type="image/png" if fmt == "png" else "image/svg+xml")
-
-
-def render_trade_curve(study, rows: list[dict], fmt: str) -> bytes:
-    from matplotlib.figure import Figure
-
-    x_name = next(iter(rows[0])) if rows else "value"
-    x_name = [k for k in rows[0] if k != "index"][0] if rows else x_name
-    skip = {"index", x_name, "status", "job_id", "warm_start_from", "error_code", "jobs"}  # jobs: tries per point, not a result
-    numeric = [k for k in dict.fromkeys(k for r in rows for k in r)
-               if k not in skip and all(isinstance(r.get(k), (int, float, type(None))) for r in rows)
-               and any(isinstance(r.get(k), (int, float)) for r in rows)][:4]
-    fig = Figure(figsize=(8, 2.6 * max(1, len(numeric))), dpi=100)
-    axes = fig.subplots(max(1, len(numeric)), 1, squeeze=False)[:, 0]
-    for ax, name in zip(axes, numeric or ["(no numbers yet)"]):
-        ok = [(r[x_name], r[name]) for r in rows if r["status"] == "succeeded" and isinstance(r.get(name), (int, float))]
-        if ok:
-            ax.plot(*zip(*ok), "o-", ms=4)
-        failed = [r[x_name] for r in rows if r["status"] == "failed"]
-        if failed:
-            ax.plot(failed, [ax.get_ylim()[0]] * len(failed), "rx", ms=8, label="failed (e.g. infeasible)")
-            ax.legend(loc="best", fontsize=8)
-        ax.set_ylabel(name)
-        ax.grid(True, alpha=0.3)
-    axes[-1].set_xlabel(x_name)
-    fig.suptitle(f"study {study.label or study.id[:8]}: {study.kind} trade curve")
-    fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format=fmt)
-    return buf.getvalue()

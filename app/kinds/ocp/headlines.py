@@ -6,7 +6,7 @@ from __future__ import annotations
 from app.kinds.headlines import Headline, number, terminal_headline, verdict
 
 
-def _objective_words(params: dict | None) -> tuple[str, str]:
+def objective_words(params: dict | None) -> tuple[str, str]:
     """(words, unit) of the objective: "minimize tf" in s; a state's own unit when it is one state."""
     objective = (params or {}).get("objective") or {}
     integrand = objective.get("integrand")
@@ -25,7 +25,7 @@ def _objective_words(params: dict | None) -> tuple[str, str]:
 
 
 def headlines(result: dict, params: dict | None = None) -> list[Headline]:
-    words, unit = _objective_words(params)
+    words, unit = objective_words(params)
     out = [number(f"objective ({words})", result["objective"].get("value"), unit, digits=6)]
     if result.get("tf") is not None and unit != "s":
         out.append(number("final time", result["tf"], "s", digits=5))

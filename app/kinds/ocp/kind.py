@@ -24,6 +24,7 @@ from app.kinds.ocp.headlines import headlines
 from app.kinds.ocp.params import OcpParams
 from app.kinds.ocp.plots import plots
 from app.kinds.ocp.result import OcpResult, build_result
+from app.kinds.ocp.trade import swept_label, trade_outputs
 from app.kinds.ocp.warm_start import WARM_START_FIELD, load_warm_start, misfit
 from app.results.tables import columns_at
 from solvers.ocp import cases
@@ -79,10 +80,13 @@ def _limits_held(verification) -> bool | None:
 
 
 def key_numbers(result: dict) -> dict:
-    """Objective (in the user's sense), final time, iterations, and what the dense re-flight found: whether
-    every limit held and whether the re-flown states agree with the solution."""
+    """Objective (in the user's sense), final time, each state's final value and each optimized parameter
+    (``final.h``, ``parameters.k``), iterations, and what the dense re-flight found: whether every limit
+    held and whether the re-flown states agree with the solution."""
     out = {"objective": result["objective"]["value"], "sense": result["objective"]["sense"],
-           "tf": result["tf"], "iterations": (result.get("solver") or {}).get("iterations")}
+           "tf": result["tf"], **{f"final.{k}": v for k, v in (result.get("final") or {}).items()},
+           **{f"parameters.{k}": v for k, v in (result.get("parameters") or {}).items()},
+           "iterations": (result.get("solver") or {}).get("iterations")}
     held = _limits_held(result.get("verification"))
     if held is not None:
         out["limits_held"] = held
@@ -149,6 +153,8 @@ SPEC = KindSpec(
     cost=cost,
     plots=plots,
     headlines=headlines,
+    trade_outputs=trade_outputs,
+    swept_label=swept_label,
     warm_start_misfit=misfit,
     memory=MEMORY,
     tables={"trajectory": trajectory_table, "verification": columns_at("verification.trajectory")},

@@ -17,6 +17,7 @@ from app.kinds.reentry.headlines import headlines
 from app.kinds.reentry.plots import plots
 from app.kinds.reentry.params import BETTS_HEAT_LIMIT_W_M2, PAPER000_TERMINAL_ALTITUDE_M, ReentryParams
 from app.kinds.reentry.result_model import ReentryResult
+from app.kinds.reentry.trade import key_numbers, trade_outputs
 from app.results.tables import columns_at
 from solvers.models import shuttle as sh
 
@@ -132,6 +133,7 @@ MEMORY = MemoryModel(floor_mb=167.0, size=lambda p: float((p.get("grid") or {}).
 
 SPEC = KindSpec(kind="reentry", params_model=ReentryParams, run=run, presets=PRESETS, result_model=ReentryResult,
                 plots=plots, headlines=headlines, cost=shooting_cost, memory=MEMORY,
+                key_numbers=key_numbers, trade_outputs=trade_outputs,
                 tables={"trajectory": columns_at("trajectory"), "verification": columns_at("verification.trajectory")},
                 warm_start_field=WARM_START_FIELD, compare=compare_series,
                 summary="Lifting reentry (Space Shuttle, Betts benchmark and paper 000) by direct "

@@ -25,6 +25,7 @@ from app.kinds.robust_reentry.headlines import headlines
 from app.kinds.robust_reentry.plots import plots
 from app.kinds.robust_reentry.params import STATES_BY_NAME, RobustReentryParams
 from app.kinds.robust_reentry.result_model import RobustReentryResult
+from app.kinds.robust_reentry.trade import key_numbers, trade_outputs
 from app.results.tables import columns_at
 from solvers.models.reentry_state import LATITUDE, STATES
 
@@ -324,6 +325,7 @@ def run(params: RobustReentryParams, ctx: JobContext) -> RunOutcome:
 
 SPEC = KindSpec(kind="robust_reentry", params_model=RobustReentryParams, run=run, presets=PRESETS, time_limit_s=1800.0,
                 result_model=RobustReentryResult, plots=plots, headlines=headlines,
+                key_numbers=key_numbers, trade_outputs=trade_outputs,
                 # the heavy queue whatever the cost: even a small robust job runs its continuation stages and
                 # two Monte Carlo validations, too long for the quick queue
                 cost=cost, memory=MEMORY, always_heavy=True, compact=compact,
