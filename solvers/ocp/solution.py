@@ -90,6 +90,9 @@ def solution_of(problem: OcpProblem, *, nlp, res, status: SolveStatus, checks: l
                         "terminal_held": all(c.terminal_held for c in checks),
                         "controls_held": all(c.report["verification"]["controls_held"] for c in checks),
                         "agrees": all(c.agrees for c in checks), "agreement_tolerance": agreement,
+                        # each phase's own mode is in its block; here the one that needed interval by interval
+                        "mode": next((c.verification.mode for c in checks if c.verification.restart),
+                                     checks[0].verification.mode),
                         "max_state_difference_scaled_overall": worst,
                         "links": link_values(problem, phases, theta)}
         solver = {"method": "multiphase", "intervals": sum(p["solver"]["intervals"] for p in phases), **account}

@@ -73,3 +73,23 @@ def test_an_amplifying_problem_that_fails_is_advised_by_its_own_fields_with_the_
     advice = outcome.error["details"]["advice"]
     assert "amplify errors by about e^40" in advice[0] and "interval by interval" in advice[0], advice
     assert not any(FOREIGN.search(line) for line in advice), advice
+
+
+def test_every_phase_of_an_amplifying_problem_is_verified_interval_by_interval():
+    phase = {"states": [{"name": "x"}], "controls": [{"name": "u", "scale": 4.0}], "dynamics": {"x": "a*x + u"},
+             "transcription": {"method": "multiple_shooting", "intervals": 100, "control": "linear", "substeps": 2}}
+    body = {"constants": {"a": 2.0}, "objective": {"sense": "minimize", "integrand": "0.5*u**2"},
+            "phases": [{**copy.deepcopy(phase), "name": "first", "time": {"initial": 0.0, "final": 10.0}},
+                       {**copy.deepcopy(phase), "name": "second", "time": {"initial": 10.0, "final": 20.0}}]}
+    body["phases"][0]["states"][0]["initial"] = 1.0
+    body["phases"][1]["states"][0]["final"] = 0.0
+    sol = solve(parse_problem(body))
+    assert sol.status.outcome is Outcome.OPTIMAL, sol.status.message
+    # e^20 in each phase: past the threshold e^13.8 on its own
+    for ph in sol.phases:
+        assert ph["verification"]["mode"] == INTERVALS, ph["name"]
+        assert abs(ph["verification"]["growth"]["exponent"] - 20.0) <= 1e-9
+    assert sol.verification["mode"] == INTERVALS and sol.verification["ok"] and sol.verification["agrees"]
+    # the same grid as the one-phase preset (200 intervals of 0.1 s) and the same closed form
+    preset = PRESETS["unstable-min-energy"]
+    assert abs(sol.objective - preset["optimum"]) <= preset["tolerance"], sol.objective

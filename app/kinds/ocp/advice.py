@@ -3,8 +3,10 @@
 The shared advice (:data:`app.kinds.failures.ADVICE`) speaks of every kind at once; an ``ocp`` problem is
 written as data, so its advice names its own fields (``transcription.method``, ``accuracy``, the states'
 ``scale`` and bounds, the entries the message names) and never another kind's (a heating limit, a
-``terminal_check``).  A method is recommended only to a job that does not already use it.  The run
-stores the list in the error's ``details.advice``; :func:`app.kinds.failures.explain` shows it.
+``terminal_check``).  A method is recommended only to a job that does not already use it; an answer verified
+interval by interval because its dynamics amplify errors (``verification.mode``, :mod:`solvers.ocp.growth`)
+is told so first, with the growth, since no grid makes a flight from t0 follow it.  The run stores the list
+in the error's ``details.advice``; :func:`app.kinds.failures.explain` shows it.
 """
 from __future__ import annotations
 
