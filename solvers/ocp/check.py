@@ -115,7 +115,9 @@ def check_phase(block, num: Numbers, z: np.ndarray, *, t0: float, agreement: flo
         return local_errors(fns=fns, grid=grid, t_nodes=t_nodes, X=att.X, U=U, theta=att.theta, c=c, t0=t0,
                             tf=att.tf, x_scale=num.x_scale)
 
-    errors = {"path": np.max(ver.interval_excess, axis=0) if ver.interval_excess else None, "state": state_errors}
+    # flown interval by interval, the verification has them already
+    local = ver.interval_error if ver.interval_error is not None else state_errors
+    errors = {"path": np.max(ver.interval_excess, axis=0) if ver.interval_excess else None, "state": local}
     return PhaseCheck(name=block.name, label="" if single else f"phase {block.name}: ", attempt=att,
                       verification=ver, terminal=terminal, terminal_held=held, agrees=agrees, worst=worst,
                       report=report, errors=errors)

@@ -59,6 +59,7 @@ class Verification:
     ok: bool = True
     message: str = ""
     restart: bool = False                        # each interval flown from its own first node
+    interval_error: np.ndarray | None = None     # restart: per interval, its worst scaled defect at its nodes
 
     @property
     def mode(self) -> str:
@@ -260,6 +261,9 @@ def verify(*, fns, grid, t_nodes, X, U, theta, c, t0, tf, state_names, x_scale,
     scaled = {s: float(diff[i].max() / scale[i]) for i, s in enumerate(state_names)}
     ver = Verification(t=t_d, x=x_d, u=u_d, max_abs_difference=abs_d, max_scaled_difference=scaled,
                        controls=excursions, restart=restart)
+    if restart:            # what local_errors would fly again: each interval's defects, from this flight
+        node_scaled = (diff / scale[:, None]).max(axis=0)
+        ver.interval_error = np.array([node_scaled[off[k] + 1:off[k + 1] + 1].max() for k in range(m)])
     if fns.npath:
         vals = np.asarray(fns.path.map(t_d.size)(t_d[None, :], x_d, u_d, args[0], args[1], t0, tf))
         interval = np.minimum(np.searchsorted(ends, t_d, side="right") - 1, m - 1)

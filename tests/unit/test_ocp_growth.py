@@ -93,3 +93,20 @@ def test_every_phase_of_an_amplifying_problem_is_verified_interval_by_interval()
     # the same grid as the one-phase preset (200 intervals of 0.1 s) and the same closed form
     preset = PRESETS["unstable-min-energy"]
     assert abs(sol.objective - preset["optimum"]) <= preset["tolerance"], sol.objective
+
+
+def test_accuracy_rounds_on_amplifying_dynamics_refine_by_the_defects_and_return_the_answer():
+    """The rounds' error is each interval's own defect (the verification's, not a second flight), so the
+    accuracy is reached and the answer returned, not failed with it stored as a partial result."""
+    preset = PRESETS["unstable-min-energy"]
+    body = copy.deepcopy(preset["params"])
+    body["transcription"]["intervals"] = 50
+    body["accuracy"] = 1e-7
+    sol = solve(parse_problem(body))
+    assert sol.status.outcome is Outcome.OPTIMAL, sol.status.message
+    assert sol.solver["accuracy_reached"] and sol.verification["mode"] == INTERVALS
+    rounds = sol.solver["refinement"]
+    assert len(rounds) >= 2 and rounds[-1]["max_error"] <= 1e-7 < rounds[0]["max_error"], rounds
+    assert sol.verification["max_state_difference_scaled_overall"] <= 1e-7
+    # defects of 1e-7 of the state's scale on a smooth exponential: the closed form to ~1e-6 (2.2e-7 seen)
+    assert abs(sol.objective - preset["optimum"]) <= 1e-6, sol.objective
