@@ -18,7 +18,7 @@ from app.runtime import logs
 from app.service import metrics
 from app.service.broker import celery_config
 from app.runtime.settings import Settings, get_settings
-from worker import broker_guard, guard, recovery_duty  # noqa: F401  (recovery_duty: its signal receivers)
+from worker import broker_guard, broker_watch, guard, recovery_duty  # noqa: F401  (broker_watch, recovery_duty: their signal receivers)
 
 
 def create_celery(settings: Settings | None = None) -> Celery:

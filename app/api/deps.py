@@ -1,4 +1,4 @@
-"""FastAPI dependency aliases: the settings, the database and the Celery app of this process.
+"""FastAPI dependency aliases: the settings, the database, the Celery app and the publisher of this process.
 
 They are ``async``: FastAPI runs a plain ``def`` dependency in its thread pool, one hop (a thread hand-off
 and back, measured at a quarter of a GET's CPU) per dependency per request, to read an attribute."""
@@ -11,6 +11,7 @@ from fastapi import Depends, Request
 
 from app.runtime.db import Database
 from app.runtime.settings import Settings
+from app.service.publisher import Publisher
 
 
 async def _settings(request: Request) -> Settings:
@@ -25,6 +26,11 @@ async def _celery(request: Request) -> Celery:
     return request.app.state.celery
 
 
+async def _publisher(request: Request) -> Publisher:
+    return request.app.state.publisher
+
+
 SettingsDep = Annotated[Settings, Depends(_settings)]
 DatabaseDep = Annotated[Database, Depends(_database)]
 CeleryDep = Annotated[Celery, Depends(_celery)]
+PublisherDep = Annotated[Publisher, Depends(_publisher)]

@@ -18,9 +18,10 @@ Two rules keep the limit from being turned against users (issue 36):
 
 The failures are counted in Redis (the broker's server), so every API process, on any host, shares one
 count per address: a sorted set of failure times per address, trimmed to the window, expiring with it.
-When Redis does not answer, each process counts on its own (:class:`FailedKeyAttempts`) for
-``REDIS_RETRY_S`` before it asks Redis again: the limit then holds per process, and no request waits
-on a lost Redis more than once per that interval.
+When Redis does not answer, each process counts on its own (:class:`FailedKeyAttempts`): while the
+process's broker breaker is open (app.service.breaker: until a PING is answered again), without asking
+Redis at all, so no request waits on a lost Redis; after a refusal (``OOM``, ``MISCONF``) for
+``REDIS_RETRY_S``.  The limit then holds per process.
 """
 from __future__ import annotations
 
@@ -82,23 +83,27 @@ class FailedKeyAttempts:
 class SharedKeyAttempts:
     """The failures of every API process, per address, in Redis; the process's own count while Redis is down."""
 
-    def __init__(self, redis, *, max_failures: int, window_s: float):
+    def __init__(self, redis, *, max_failures: int, window_s: float, breaker=None):
         self.redis, self.max_failures, self.window_s = redis, max_failures, window_s
+        self.breaker = breaker  # app.service.breaker.BrokerBreaker, or None: only REDIS_RETRY_S after an error
         self.local = FailedKeyAttempts(max_failures=max_failures, window_s=window_s)
         self._redis_down_until = 0.0
 
     def _shared(self, fn):
         """``fn()`` against Redis, or None (use the local count) when Redis is down or did not answer."""
-        from redis.exceptions import RedisError
+        from redis.exceptions import RedisError, ResponseError
 
-        if time.monotonic() < self._redis_down_until:
+        if (self.breaker is not None and self.breaker.open) or time.monotonic() < self._redis_down_until:
             return None
         try:
             return fn()
         except (RedisError, OSError) as exc:
-            self._redis_down_until = time.monotonic() + REDIS_RETRY_S
-            log.warning("failed API-key attempts counted per process for %.0f s: Redis did not answer (%s)",
-                        REDIS_RETRY_S, type(exc).__name__)
+            if self.breaker is not None and not isinstance(exc, ResponseError):
+                self.breaker.trip(exc)  # unreachable: every Redis user of this process knows it now
+            else:
+                self._redis_down_until = time.monotonic() + REDIS_RETRY_S
+            log.warning("failed API-key attempts counted per process: Redis did not answer (%s)",
+                        type(exc).__name__)
             return None
 
     def retry_after_s(self, address: str) -> int | None:
@@ -149,6 +154,9 @@ def for_app(state, settings) -> SharedKeyAttempts:
         # one immediate retry (a pooled connection a Redis restart closed), then the local count
         client = redis_client(settings.broker_url, settings=settings, socket_timeout=REDIS_TIMEOUT_S,
                               socket_connect_timeout=REDIS_TIMEOUT_S, retry=Retry(NoBackoff(), 1))
+        from app.service import breaker
+
         limiter = state.failed_key_attempts = SharedKeyAttempts(client, max_failures=settings.auth_max_failures,
-                                                                window_s=settings.auth_failure_window_s)
+                                                                window_s=settings.auth_failure_window_s,
+                                                                breaker=breaker.for_process(settings))
     return limiter

@@ -18,6 +18,7 @@ from app.api.limits import reject_unsafe_text
 from app.api.security_headers import SecurityHeaders
 from app.api.observability import RequestObservation
 from app.runtime.settings import Settings, get_settings
+from app.service.publisher import Publisher
 
 DESCRIPTION = """
 Trajectory optimization as a job service. Submit a job (`POST /v1/jobs`) with a
@@ -84,6 +85,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.settings = settings
     app.state.db = get_database(settings.database_url, settings)
     app.state.celery = create_publisher(settings)
+    # job messages leave from the publisher's thread, never from a request (app.service.publisher)
+    app.state.publisher = Publisher(app.state.db, app.state.celery, settings)
     bad_body: dict[int | str, dict[str, Any]] = {400: {"description": "The body is not valid JSON (e.g. not UTF-8)"},
                 413: {"description": "The body is larger than TRAJLAB_MAX_BODY_BYTES (refused before parsing)"}}
     needs_key: dict[int | str, dict[str, Any]] = {401: {"description": "No, unknown or revoked API key (TRAJLAB_AUTH=required)"},

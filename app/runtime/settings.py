@@ -103,6 +103,12 @@ class Settings(BaseSettings):
     redis_socket_timeout_s: float = Field(
         default=5.0, gt=1, description="Redis: a command's reply (above kombu's 1 s BRPOP timeout)")
     redis_connect_timeout_s: float = Field(default=3.0, gt=0, description="Redis: TCP connect")
+    broker_probe_interval_s: float = Field(
+        default=1.0, gt=0, description="API: the broker is PINGed this often (app.service.breaker); a silent loss "
+                                       "is noticed within this plus the probe timeout, and no request waits on it")
+    broker_probe_timeout_s: float = Field(
+        default=1.0, gt=0, description="API: the reply bound of that PING (/readyz's and /metrics' own Redis calls "
+                                       "wait at most 0.25 s of it)")
     redis_health_check_interval_s: int = Field(
         default=10, ge=0, description="Redis: a connection idle this long is pinged before use; kombu also drops "
                                       "a BRPOP connection overdue by this much")

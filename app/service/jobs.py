@@ -197,8 +197,15 @@ def request_cancel(db: Database, job_id: str) -> Job | None:
 def mark_unpublished(db: Database, job_id: str) -> None:
     """The broker could not take the job's message: it stays queued, and the re-publisher sends it
     as soon as the broker is back (never stored as failed: the job was accepted)."""
+    mark_unpublished_many(db, [job_id])
+
+
+def mark_unpublished_many(db: Database, job_ids: list[str]) -> None:
+    """:func:`mark_unpublished` for many jobs in one statement (the API's publisher, app.service.publisher)."""
+    if not job_ids:
+        return
     with db.write() as s:
-        s.execute(update(Job).where(Job.id == job_id, Job.status == "queued").values(
+        s.execute(update(Job).where(Job.id.in_(job_ids), Job.status == "queued").values(
             published_at=None, message="queued; waiting for the broker (it will be published when it is back)"))
 
 
@@ -265,6 +272,9 @@ def claim(db: Database, job_id: str, attempt: int, *, worker: str, max_attempts:
                 return None
             job.attempts += 1
         job.status = "running"
+        # delivered, so published: a message the broker took although its sender saw a timeout (a reply lost
+        # in a silent cut) left the row unpublished, and nothing else would ever set it
+        job.published_at = job.published_at or now
         queue_wait_s = None if job.started_at is not None else (now - _aware(job.created_at)).total_seconds()
         job.started_at = job.started_at or now
         job.heartbeat_at = now

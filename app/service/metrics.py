@@ -11,8 +11,12 @@ same answer:
 * Redis (the broker's database), for what happens to a job in passing: the durations, queue waits
   and solver iterations of finished jobs as histogram buckets, the recovery loop's re-queues and
   re-publications and its heartbeat, worker starts (:func:`record_job`, :func:`count`,
-  :func:`beat`: one pipelined round trip each, never on an HTTP request's path), and the broker's
-  queue lengths.
+  :func:`beat`, never on an HTTP request's path), and the broker's queue lengths.
+
+Those writes never hold up a job and are not lost when Redis is cut off: they go to a buffer of the process
+(app.service.metrics_buffer) that a thread of its own flushes, keeps while Redis does not answer, and
+writes once when it answers again (each flush carries a token, so one whose reply was lost is not counted
+twice when it is sent again).
 
 The HTTP metrics are the API processes' own (app.api.observability, in the library's multiprocess mode).
 """
@@ -30,6 +34,7 @@ from sqlalchemy import func, select
 
 from app.runtime.db import Database
 from app.runtime.models import FINAL_STATUSES, Job
+from app.service import metrics_buffer
 from app.service.broker import QUEUES, redis_client
 
 log = logging.getLogger("trajlab.metrics")
@@ -67,40 +72,30 @@ def _bucket(bounds: Iterable[float], value: float) -> str:
     return "+Inf"
 
 
-def _safe(write) -> None:
-    # metrics never fail a job or a recovery pass: a Redis hiccup costs a sample, logged
-    try:
-        write()
-    except Exception as exc:
-        log.warning("metrics not recorded (%s)", type(exc).__name__)
-
-
 def record_job(redis, *, kind: str, duration_s: float | None = None, queue_wait_s: float | None = None,
                iterations: float | None = None) -> None:
-    """Add one job's observations (those given) to the histograms, in one round trip."""
-    def write():
-        pipe = redis.pipeline(transaction=False)
-        for name, value in (("job_duration_seconds", duration_s), ("job_queue_wait_seconds", queue_wait_s),
-                            ("solver_iterations", iterations)):
-            if value is None or not math.isfinite(value):
-                continue
-            key = PREFIX + name
-            pipe.hincrby(key, f"{kind}|{_bucket(HISTOGRAMS[name][1], value)}", 1)
-            pipe.hincrbyfloat(key, f"{kind}|sum", float(value))
-            pipe.hincrby(key, f"{kind}|count", 1)
-        pipe.execute()
-    _safe(write)
+    """Add one job's observations (those given) to the histograms (buffered: module docstring)."""
+    commands = []
+    for name, value in (("job_duration_seconds", duration_s), ("job_queue_wait_seconds", queue_wait_s),
+                        ("solver_iterations", iterations)):
+        if value is None or not math.isfinite(value):
+            continue
+        key = PREFIX + name
+        commands += [("HINCRBY", key, f"{kind}|{_bucket(HISTOGRAMS[name][1], value)}", 1),
+                     ("HINCRBYFLOAT", key, f"{kind}|sum", repr(float(value))),
+                     ("HINCRBY", key, f"{kind}|count", 1)]
+    metrics_buffer.add(redis, commands)
 
 
 def count(redis, event: str, n: int = 1) -> None:
     """Add ``n`` to an event counter (:data:`EVENTS`)."""
     if n:
-        _safe(lambda: redis.hincrby(COUNTERS, event, n))
+        metrics_buffer.add(redis, [("HINCRBY", COUNTERS, event, n)])
 
 
 def beat(redis) -> None:
     """The recovery loop finished a pass now."""
-    _safe(lambda: redis.set(HEARTBEAT, repr(time.time())))
+    metrics_buffer.add(redis, [("SET", HEARTBEAT, repr(time.time()))])
 
 
 def solver_iterations(result: dict | None) -> float | None:
@@ -114,15 +109,20 @@ class ServiceCollector(Collector):
     """Reads the jobs table and Redis on each scrape (``describe`` is empty: nothing is read at
     registration)."""
 
-    def __init__(self, db: Database, redis, kinds: Iterable[str]):
+    def __init__(self, db: Database, redis, kinds: Iterable[str], breaker=None):
         self.db, self.redis, self.kinds = db, redis, tuple(kinds)
+        self.breaker = breaker  # app.service.breaker.BrokerBreaker: while open, the broker's families are left out
 
     def describe(self):
         return []
 
     def collect(self) -> Iterator:
         yield from self._from_database()
-        yield from self._from_redis()
+        if self.breaker is None:
+            yield from self._from_redis()
+            return
+        # a scrape never waits on a lost broker: its families are missing until it answers again
+        yield from self.breaker.call(lambda: list(self._from_redis()), [], trip=False)
 
     def _from_database(self) -> Iterator:
         with self.db.read_connection() as conn:

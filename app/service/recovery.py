@@ -121,15 +121,18 @@ class Recovery:
         candidates = jobs.publish_candidates(self.db, older_than_s=s.republish_after_s)
         if candidates:
             present = job_ids_in_broker(self.redis, delivered_within_s=s.republish_after_s)
-            sent = []
+            sent, found = [], []
             for job in candidates:  # thousands after a long broker outage: the lease is kept meanwhile
                 self._keep_lease()
                 if job.id in present:
+                    if job.published_at is None:
+                        # in the broker though its sender saw a timeout (the reply was lost, the command not)
+                        found.append(job.id)
                     continue
                 if not self._publish(job):
                     break  # the broker refuses (down, or full): the rest wait for the next pass
                 sent.append(job.id)
-            jobs.mark_published(self.db, sent)
+            jobs.mark_published(self.db, sent + found)
             if sent:
                 done["republished"] = len(sent)
                 log.warning("re-published %d queued job(s) missing from the broker", len(sent))

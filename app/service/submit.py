@@ -3,8 +3,9 @@
 The sequence is the same for a job and for every point of a study: resolve the parameters (preset, then
 the caller's overrides, validated by the kind's model), check the warm starts, refuse a job past the
 memory cap, estimate the cost, choose the queue, store the rows with the quota checked (the jobs table is
-the truth), and only then publish (a message the broker cannot take leaves the job queued and unpublished
-for the recovery loop).  The API routes translate HTTP to these calls and the exceptions back to status
+the truth), and only then hand the jobs to the process's publisher (app.service.publisher), which sends
+their messages from its own thread: a request never waits on the broker, and a message the broker cannot
+take leaves the job queued, kept and marked unpublished until the broker answers again.  The API routes translate HTTP to these calls and the exceptions back to status
 codes (``app.api.errors``):
 
 * :class:`app.service.params.InvalidParams`: a 422 naming ``body.params.<field>`` (bad parameters, a warm
@@ -23,7 +24,7 @@ from app.runtime.models import Job, Study
 from app.runtime.settings import Settings
 from app.service import job_memory, jobs, quota, studies
 from app.service.params import InvalidParams, resolve_params
-from app.service.recovery import publish_or_defer
+from app.service.publisher import Publisher
 from app.service.warm_start import check_warm_starts
 
 log = logging.getLogger("trajlab.api")  # the API's line of each submission, as before the move
@@ -44,11 +45,11 @@ def _check_memory(kind: str, params: dict, settings: Settings, *, prefix: str = 
         raise Refused(prefix + exc.message) from None
 
 
-def submit_job(db: Database, settings: Settings, celery, *, kind: str, preset: str | None,
+def submit_job(db: Database, settings: Settings, publisher: Publisher, *, kind: str, preset: str | None,
                overrides: dict | None, label: str | None, owner: str | None,
                idempotency_key: str | None = None, request_hash: str | None = None,
                request_id: str | None = None) -> Job | jobs.JobRow:
-    """Admit one job of ``owner`` (None: auth off, no quota) and publish it; the job as stored.
+    """Admit one job of ``owner`` (None: auth off, no quota) and hand it to ``publisher``; the job as stored.
 
     ``kind`` and ``preset`` are known names (the request schema checked them).  A repeated request
     (the same ``idempotency_key`` and ``request_hash``) returns the job it created, even at the quota.
@@ -72,13 +73,11 @@ def submit_job(db: Database, settings: Settings, celery, *, kind: str, preset: s
     if created:
         # the API's line of this request for the job; the worker logs the same request_id with the job's lines
         log.info("job %s submitted (kind %s, queue %s)", job.id, job.kind, job.queue)
-        if not publish_or_defer(db, celery, settings, job):
-            # accepted all the same: the answer shows it waits for the broker
-            job = jobs.get_job(db, job.id) or job
+        publisher.send([job])
     return job
 
 
-def submit_study(db: Database, settings: Settings, celery, *, kind: str, preset: str | None,
+def submit_study(db: Database, settings: Settings, publisher: Publisher, *, kind: str, preset: str | None,
                  overrides: dict | None, sweeps: list[dict], mode: str, label: str | None,
                  owner: str | None) -> Study:
     """Admit a trade study of ``owner``: every point must be a job this service would admit before
@@ -108,6 +107,5 @@ def submit_study(db: Database, settings: Settings, celery, *, kind: str, preset:
     study, created = studies.create_study(db, kind=kind, preset=preset, label=label, base_params=base,
                                           sweeps=sweeps, mode=mode, points=points, owner=owner,
                                           queue=quota.queue_for(kind, max(costs), settings))
-    for job in created:
-        publish_or_defer(db, celery, settings, job)
+    publisher.send(created)
     return study

@@ -52,7 +52,10 @@ def test_redis_restarted_without_persistence_with_100_queued_jobs(stack):
     stack.start_recovery()  # no worker yet: the jobs wait in Redis
     accepted = [stack.submit().json()["id"] for _ in range(100)]
     r = redis_lib.Redis.from_url(stack.redis.url)
-    assert r.llen(QUEUE_JOBS) == 100
+    deadline = time.monotonic() + 60  # published by the API's publisher thread, after the answers
+    while r.llen(QUEUE_JOBS) < 100:
+        assert time.monotonic() < deadline, r.llen(QUEUE_JOBS)
+        time.sleep(0.05)
     stack.redis.kill()  # everything queued in Redis is gone
     down = [stack.submit() for _ in range(10)]  # submissions while the broker is down are accepted
     assert [x.status_code for x in down] == [202] * 10

@@ -1,15 +1,18 @@
 """Admission without HTTP (app.service.submit): the refusals are typed exceptions, a refused study stores
 nothing, and a submitted job and a study's point are queued rows of the same shape (SQLite, and a broker
-that cannot be reached: accepted work stays queued, unpublished, for the recovery loop)."""
+that cannot be reached: accepted work stays queued, kept by the publisher and marked unpublished)."""
 from __future__ import annotations
+
+import time
 
 import pytest
 from sqlalchemy import func, select
 
 from app.runtime.models import Job, Study
 from app.runtime.settings import Settings
-from app.service import studies, submit
+from app.service import jobs, studies, submit
 from app.service.broker import create_publisher
+from app.service.publisher import Publisher
 from app.service.params import InvalidParams
 
 INTERCEPT = {"methods": ["impulsive"]}
@@ -18,7 +21,7 @@ INTERCEPT = {"methods": ["impulsive"]}
 @pytest.fixture
 def setup(sqlite_db):
     settings = Settings(database_url="sqlite://", broker_url="redis://127.0.0.1:1/0", job_memory_mb=400)
-    return sqlite_db, settings, create_publisher(settings)
+    return sqlite_db, settings, Publisher(sqlite_db, create_publisher(settings), settings)
 
 
 def _count(db, table) -> int:
@@ -27,12 +30,19 @@ def _count(db, table) -> int:
 
 
 def test_a_job_and_a_study_point_are_the_same_queued_row(setup):
-    db, settings, celery = setup
-    job = submit.submit_job(db, settings, celery, kind="intercept", preset="long-range-intercept",
+    db, settings, publisher = setup
+    job = submit.submit_job(db, settings, publisher, kind="intercept", preset="long-range-intercept",
                             overrides=INTERCEPT, label="one", owner="ann")
-    study = submit.submit_study(db, settings, celery, kind="intercept", preset="long-range-intercept",
+    study = submit.submit_study(db, settings, publisher, kind="intercept", preset="long-range-intercept",
                                 overrides=INTERCEPT, sweeps=[{"path": "intercept_time_s", "values": [7000.0]}],
                                 mode="independent", label="s", owner="ann")
+    # nothing listens on port 1: the publisher's thread finds the broker down and marks both unpublished
+    deadline = time.monotonic() + 30
+    while any(jobs.get_job(db, j).published_at is not None for j in (job.id, studies.point_jobs(db, study.id)[0].id)):
+        assert time.monotonic() < deadline, "the publisher did not mark the jobs unpublished"
+        time.sleep(0.05)
+    assert publisher.pending() == 2  # kept for the broker's return
+    job = jobs.get_job(db, job.id)
     (point,) = studies.point_jobs(db, study.id)
     for row in (job, point):
         assert (row.status, row.attempts, row.progress, row.owner, row.kind) == ("queued", 1, 0.0, "ann", "intercept")
@@ -42,18 +52,18 @@ def test_a_job_and_a_study_point_are_the_same_queued_row(setup):
 
 
 def test_refusals_are_typed_and_a_refused_study_stores_nothing(setup):
-    db, settings, celery = setup
+    db, settings, publisher = setup
     with pytest.raises(InvalidParams) as bad:
-        submit.submit_job(db, settings, celery, kind="reentry", preset="betts-max-crossrange", label=None,
+        submit.submit_job(db, settings, publisher, kind="reentry", preset="betts-max-crossrange", label=None,
                           owner=None, overrides={"initial_guess": {"from_job": "0" * 32}})
     assert bad.value.errors[0]["loc"] == ("params", "initial_guess", "from_job")
     assert "does not exist" in bad.value.errors[0]["msg"]
     with pytest.raises(submit.Refused, match=r"point 1 .*TRAJLAB_JOB_MEMORY_MB"):
-        submit.submit_study(db, settings, celery, kind="robust_reentry", preset="robust-max-crossrange",
+        submit.submit_study(db, settings, publisher, kind="robust_reentry", preset="robust-max-crossrange",
                             overrides=None, sweeps=[{"path": "grid.intervals", "values": [100, 1000]}],
                             mode="independent", label=None, owner=None)
     with pytest.raises(submit.Refused, match="sweeps: nope"):
-        submit.submit_study(db, settings, celery, kind="intercept", preset="long-range-intercept",
+        submit.submit_study(db, settings, publisher, kind="intercept", preset="long-range-intercept",
                             overrides=INTERCEPT, sweeps=[{"path": "nope", "values": [1]}], mode="independent",
                             label=None, owner=None)
     assert _count(db, Job) == 0 and _count(db, Study) == 0

@@ -5,7 +5,8 @@ Each component is "up" or says what is wrong in words that carry no address, pat
 (those go to the log, not to whoever asks):
 
 * ``database``: ``down`` when ``SELECT 1`` fails;
-* ``broker``: ``down`` when Redis cannot be reached, ``refuses writes: <Redis's reason>`` when it
+* ``broker``: ``down`` when Redis cannot be reached (at once while the process's breaker holds it
+  unreachable, app.service.breaker; else within ``TRAJLAB_BROKER_PROBE_TIMEOUT_S``), ``refuses writes: <Redis's reason>`` when it
   answers but refuses a ``SET`` with a short expiry (``maxmemory`` reached under noeviction, a failed
   dump's ``MISCONF``, a read-only replica): a broker that only opens connections cannot take a job;
 * ``recovery``: ``heartbeat stale for N s`` when no process renewed the recovery lease for
@@ -27,6 +28,7 @@ from sqlalchemy import text
 from app.api.deps import CeleryDep, DatabaseDep, SettingsDep
 from app.runtime.disk import storage_checks
 from app.runtime.settings import Settings
+from app.service import breaker as breakers
 from app.service import lease
 from app.service.broker import redis_client, refusal
 
@@ -43,7 +45,11 @@ def healthz():
 
 @functools.lru_cache(maxsize=4)
 def _redis(broker_url: str, socket_timeout_s: float, connect_timeout_s: float):
-    return redis_client(broker_url, socket_timeout=socket_timeout_s, socket_connect_timeout=connect_timeout_s)
+    from redis.backoff import NoBackoff
+    from redis.retry import Retry
+
+    return redis_client(broker_url, socket_timeout=socket_timeout_s, socket_connect_timeout=connect_timeout_s,
+                        retry=Retry(NoBackoff(), 0))
 
 
 def _broker(settings: Settings, celery) -> str:
@@ -51,14 +57,19 @@ def _broker(settings: Settings, celery) -> str:
         with celery.connection_for_write() as conn:
             conn.ensure_connection(max_retries=1, timeout=2)
         return "up"
-    from redis.exceptions import ConnectionError, ResponseError, TimeoutError
+    from redis.exceptions import ResponseError
 
-    r = _redis(settings.broker_url, min(settings.redis_socket_timeout_s, 2.0), min(settings.redis_connect_timeout_s, 2.0))
+    # the process's breaker (app.service.breaker): a broker known unreachable is "down" at once, and a call
+    # that finds it so opens the breaker; a readiness check never waits longer than the probe's bound
+    breaker = breakers.for_process(settings)
+    if breaker.open:
+        return "down"  # the breaker logged it
+    bound = min(settings.broker_probe_timeout_s, breakers.REQUEST_BOUND_S)
+    r = _redis(settings.broker_url, bound, bound)
     try:
-        r.set(READY_KEY, "1", ex=10)
-    except (ConnectionError, TimeoutError):
-        log.warning("readiness: broker unreachable", exc_info=True)
-        return "down"
+        if not breaker.call(lambda: r.set(READY_KEY, "1", ex=10), False, trip=False):
+            log.warning("readiness: broker did not answer within %.1f s", bound)
+            return "down"
     except ResponseError as exc:
         log.warning("readiness: broker refuses writes (%s)", exc)
         return f"refuses writes: {refusal(exc)}"

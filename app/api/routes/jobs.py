@@ -55,7 +55,7 @@ def submit_job(
         request_hash = hashlib.sha256(json.dumps(body, sort_keys=True).encode()).hexdigest()
     # app.service.submit admits it; its refusals are 422s and 429s (app.api.errors)
     job = submit.submit_job(
-        request.app.state.db, request.app.state.settings, request.app.state.celery, kind=submission.kind,
+        request.app.state.db, request.app.state.settings, request.app.state.publisher, kind=submission.kind,
         preset=submission.preset, label=submission.label, owner=principal.owner,
         overrides=submission.params.model_dump(exclude_unset=True) if submission.params is not None else None,
         idempotency_key=idempotency_key, request_hash=request_hash, request_id=logs.current("request_id"))

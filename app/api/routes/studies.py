@@ -12,8 +12,7 @@ from pydantic import BaseModel, Field, model_validator
 
 from app.service import retention, studies, study_chart, submit
 from app.api.access import Principal, PrincipalDep
-from app.service.recovery import publish_or_defer
-from app.api.deps import CeleryDep, DatabaseDep, SettingsDep
+from app.api.deps import DatabaseDep, PublisherDep, SettingsDep
 from app.kinds import KINDS, PRESETS
 from app.api.routes.results import forget
 from app.service.params import deep_merge
@@ -135,19 +134,14 @@ def submit_study(body: Annotated[StudySubmission, Body(openapi_examples={
                 "value": {"kind": "reentry", "preset": "betts-max-crossrange", "params": {"grid": {"intervals": 30}},
                           "sweeps": [{"path": "terminal.speed_mps", "values": [762.0, 1000.0, 1200.0]}],
                           "mode": "continuation", "label": "crossrange vs final speed"}}})],
-        response: Response, db: DatabaseDep, settings: SettingsDep, celery: CeleryDep, principal: PrincipalDep):
+        response: Response, db: DatabaseDep, settings: SettingsDep, publisher: PublisherDep, principal: PrincipalDep):
     spec_body = _resolve(body)
     # app.service.submit admits it; its refusals are 422s and 429s (app.api.errors)
-    study = submit.submit_study(db, settings, celery, kind=spec_body["kind"], preset=spec_body.get("preset"),
+    study = submit.submit_study(db, settings, publisher, kind=spec_body["kind"], preset=spec_body.get("preset"),
                                 overrides=spec_body.get("params"), sweeps=spec_body["sweeps"],
                                 mode=spec_body["mode"], label=spec_body.get("label"), owner=principal.owner)
     response.headers["Location"] = f"/v1/studies/{study.id}"
     return studies.summary(db, study)
-
-
-def _publish(db, celery, settings, created) -> None:
-    for job in created:
-        publish_or_defer(db, celery, settings, job)
 
 
 @router.get("", response_model=list[StudyOut])
@@ -158,12 +152,12 @@ def list_studies(db: DatabaseDep, principal: PrincipalDep,
 
 
 @router.get("/{study_id}", response_model=StudyOut, responses={404: {"description": "Unknown study"}})
-def get_study(study_id: str, db: DatabaseDep, settings: SettingsDep, celery: CeleryDep, principal: PrincipalDep):
+def get_study(study_id: str, db: DatabaseDep, publisher: PublisherDep, principal: PrincipalDep):
     study = _visible(db, study_id, principal)
     if study.status == "running":
         # The worker moves a study on when a point finishes; a point that ended elsewhere (cancelled,
         # given up by the reaper) is caught here as well as by the recovery loop.
-        _publish(db, celery, settings, studies.advance(db, study_id))
+        publisher.send(studies.advance(db, study_id))
         study = studies.get_study(db, study_id)
     return studies.summary(db, study)
 
