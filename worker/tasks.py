@@ -1,4 +1,4 @@
-"""Celery tasks: deliver a job to its kind's ``run``; compute Monte Carlo chunks.
+"""Celery tasks: deliver a job to its kind's ``run``; compute Monte Carlo chunks and a job's pieces.
 
 Everything a test wants to exercise lives in :func:`execute_job` and in
 ``app.service.jobs``; the task functions only bind them to Celery.  Recovery (stale
@@ -31,7 +31,7 @@ from app.kinds import KINDS
 from app.kinds.base import JobCancelled, JobFailure, RunOutcome
 from app.runtime.settings import Settings, get_settings
 from solvers.transcription import jit
-from worker import fanout
+from worker import fanout, pieces
 from worker.celery_app import celery_app
 from worker.context import WorkerJobContext
 from worker.guard import MB, JobGuard
@@ -193,3 +193,11 @@ def mc_chunk(self, run_id: str, index: int, start: int, count: int, seed: int) -
     settings = get_settings()
     return fanout.compute_chunk(redis_client(settings.broker_url, settings=settings), run_id, index, start, count,
                                 seed, who=self.request.hostname or socket.gethostname())
+
+
+@celery_app.task(name="trajlab.piece", bind=True)
+def piece(self, run_id: str, index: int) -> bool:
+    """One piece of a job's fan-out (``worker/pieces.py``), unless the job or another worker has it."""
+    settings = get_settings()
+    return pieces.compute_piece(redis_client(settings.broker_url, settings=settings), run_id, index,
+                                who=self.request.hostname or socket.gethostname())

@@ -52,6 +52,53 @@ class JobContext(Protocol):
         """
 
 
+    def run_pieces(self, fn: Callable[[dict, int, Callable[[], bool]], dict], spec: dict, count: int, *,
+                   label: str) -> list[dict]:
+        """``[fn(spec, i, should_stop) for i in range(count)]`` (``fn`` declared with :func:`piece`; its output
+        JSON), in index order; a piece that raised is ``{"raised": "<type>: <message>"}``, so one piece's
+        failure is the kind's to judge.  The service decides where they run: here, or fanned out across
+        the workers as a study's points are (``worker/pieces.py``); progress says ``"<label> i/count done"``.
+        Raises :class:`JobCancelled` when the job is cancelled meanwhile."""
+
+
+# The functions a job may fan out (JobContext.run_pieces), by name: a worker finds one here, never by a
+# name it was sent alone (the kind's module declares it when the registry imports it).
+PIECES: dict[str, Callable[[dict, int, Callable[[], bool]], dict]] = {}
+
+
+def piece_name(fn: Callable) -> str:
+    return f"{fn.__module__}:{fn.__qualname__}"
+
+
+def piece(fn: Callable[[dict, int, Callable[[], bool]], dict]) -> Callable[[dict, int, Callable[[], bool]], dict]:
+    """Declare ``fn(spec, index, should_stop) -> dict`` a piece of work a job may fan out (module level)."""
+    PIECES[piece_name(fn)] = fn
+    return fn
+
+
+def run_piece(fn: Callable[[dict, int, Callable[[], bool]], dict], spec: dict, index: int,
+              should_stop: Callable[[], bool]) -> dict:
+    """One piece, its exception kept as its output (JobContext.run_pieces)."""
+    try:
+        return fn(spec, index, should_stop)
+    except JobCancelled:
+        raise
+    except Exception as exc:  # one piece's failure is the kind's to judge, not the job's end
+        return {"raised": f"{type(exc).__name__}: {str(exc)[:500]}"}
+
+
+def run_pieces_here(fn, spec: dict, count: int, *, label: str, should_stop: Callable[[], bool],
+                    progress: Callable[[float, str], None]) -> list[dict]:
+    """The pieces one after the other in this process (JobContext.run_pieces without a service)."""
+    out = []
+    for i in range(count):
+        if should_stop():
+            raise JobCancelled(f"cancelled before {label} {i + 1}/{count}")
+        out.append(run_piece(fn, spec, i, should_stop))
+        progress((i + 1) / count, f"{label} {i + 1}/{count} done")
+    return out
+
+
 class InProcessContext:
     """A :class:`JobContext` without a service: a job run in this process (benchmarks, notebooks, tests).
 
@@ -83,6 +130,9 @@ class InProcessContext:
         from solvers.uncertainty.montecarlo import run_monte_carlo
 
         return run_monte_carlo(spec, samples, seed, chunk_size)
+
+    def run_pieces(self, fn, spec: dict, count: int, *, label: str) -> list[dict]:
+        return run_pieces_here(fn, spec, count, label=label, should_stop=self.should_stop, progress=self.progress)
 
 
 class JobFailure(Exception):

@@ -24,7 +24,8 @@ import numpy as np
 
 from solvers.ocp.guess import guess_of, stored_phases
 from solvers.ocp.phase import positive_scale
-from solvers.ocp.problem import OcpProblem
+from solvers.ocp.problem import OcpProblem, PhaseProblem
+from solvers.ocp.symbolic import functions_of
 
 ESCAPE = 1e3                # a flight past this many scales from its start is blowing up
 RK4_STABILITY = 2.785       # RK4's stability interval on the negative real axis (h lambda in [-2.785, 0])
@@ -35,13 +36,12 @@ def _clip(v: np.ndarray, lo, hi) -> np.ndarray:
     return np.clip(v, -np.inf if lo is None else lo, np.inf if hi is None else hi)
 
 
-def _phase_flight(block, t0: float, warm: dict | None):
-    """``(t nodes, X, U at the nodes, tf, theta, stopped_at)`` of one phase flown from its guess."""
+def fly(problem: PhaseProblem, grid, *, t0: float, tf: float, theta, X: np.ndarray, U: np.ndarray):
+    """``(t nodes, X, U at the nodes, stopped_at)``: the phase's dynamics flown on ``grid`` from ``X[:, 0]``
+    with the controls ``U`` (on the grid's control nodes) clipped to their bounds (module docstring)."""
     from scipy.integrate import solve_ivp
 
-    problem, grid, fns = block.problem, block.nlp.grid, block.nlp.fns
-    ph = problem.phase
-    tf, theta, X, U = guess_of(problem, grid, warm)
+    ph, fns = problem.phase, functions_of(problem)
     tau = grid.tau()
     tau_u = tau if grid.n_controls == grid.n_nodes else tau[:-1]
     t = t0 + (tf - t0) * tau
@@ -49,7 +49,7 @@ def _phase_flight(block, t0: float, warm: dict | None):
     U = np.vstack([_clip(U[i], k.lower, k.upper) for i, k in enumerate(ph.controls)]) if ph.controls else U
     c = np.array([v for _, v in problem.constants], float)
     scale = np.array([s.scale or positive_scale(s.lower, s.upper, s.initial, s.final) for s in ph.states])
-    x0 = X[:, 0].copy()
+    x0 = np.asarray(X[:, 0], float).copy()
 
     def controls(ti: float) -> np.ndarray:
         return np.array([np.interp(ti, t_u, row) for row in U]) if len(U) else np.zeros(0)
@@ -59,6 +59,8 @@ def _phase_flight(block, t0: float, warm: dict | None):
         return np.where(np.isfinite(f), f, 0.0)     # the escape event below ends such a flight
 
     def escape(ti, x):
+        if not np.all(np.isfinite(x)):
+            return -1.0
         far = np.abs(x - x0) / scale
         outside = [0.0]
         for s, xi, si in zip(ph.states, x, scale):
@@ -67,8 +69,6 @@ def _phase_flight(block, t0: float, warm: dict | None):
                 outside.append((s.lower - xi) / span)
             if s.upper is not None:
                 outside.append((xi - s.upper) / span)
-        if not np.all(np.isfinite(x)):
-            return -1.0
         return 1.0 - max(far.max() / ESCAPE, max(outside))
     escape.terminal = True   # type: ignore[attr-defined]
 
@@ -82,10 +82,10 @@ def _phase_flight(block, t0: float, warm: dict | None):
         flown = sol.y if reached else x0[:, None]
     except (ValueError, RuntimeError, FloatingPointError):
         reached, flown, stopped = 1, x0[:, None], t0
-    if reached < t.size:                   # stopped: hold the last good state
-        last = flown[:, -1:] if flown.size else x0[:, None]
-        flown = np.hstack([flown, np.repeat(last, t.size - reached, axis=1)])
-        stopped = t[reached - 1] if stopped is None else stopped
+    reached = max(reached, 1)
+    if flown.shape[1] < t.size:            # stopped: hold the last good state
+        flown = np.hstack([flown, np.repeat(flown[:, -1:], t.size - flown.shape[1], axis=1)])
+        stopped = float(t[reached - 1]) if stopped is None else stopped
     Xf = np.vstack([_clip(flown[i], s.lower, s.upper) for i, s in enumerate(ph.states)])
     for i, s in enumerate(ph.states):      # the fixed ends are the NLP's bounds: keep them
         if s.initial is not None:
@@ -93,30 +93,45 @@ def _phase_flight(block, t0: float, warm: dict | None):
         if s.final is not None:
             Xf[i, -1] = s.final
     Ux = np.vstack([np.interp(t, t_u, row) for row in U]) if len(U) else np.zeros((0, t.size))
-    return t, Xf, Ux, tf, theta, stopped
+    return t, Xf, Ux, stopped
+
+
+def as_stored(problem: OcpProblem, phases: list[dict], theta) -> dict:
+    """Phases ``{"name", "t0", "tf", "t", "X", "U"}`` in the form of a stored answer (what the solver places)."""
+    out = []
+    for ph, f in zip(problem.phases, phases):
+        p = ph.problem.phase
+        traj = {"t": np.asarray(f["t"]).tolist(), **{s.name: f["X"][i].tolist() for i, s in enumerate(p.states)},
+                **{k.name: f["U"][i].tolist() for i, k in enumerate(p.controls)}}
+        out.append({"name": ph.name, "t0": float(f["t0"]), "tf": float(f["tf"]), "trajectory": traj})
+    params = {q.name: float(v) for q, v in zip(problem.parameters, np.asarray(theta, float))}
+    if problem.single:
+        return {"trajectory": out[0]["trajectory"], "tf": out[0]["tf"], "parameters": params}
+    return {"phases": out, "parameters": params}
+
+
+def phase_start(problem: OcpProblem, ph, initial_guess: dict | None, stored: dict, grid):
+    """``(t0, tf, theta, X, U)`` of phase ``ph`` from the guess (a stored answer or the straight lines)."""
+    old = stored.get(ph.name)
+    warm = None if old is None else {**old, "parameters": (initial_guess or {}).get("parameters")}
+    tf, theta, X, U = guess_of(ph.problem, grid, warm)
+    time = ph.problem.phase.time
+    t0 = float(old["t0"]) if old is not None and "t0" in old else (time.initial if time.initial is not None else 0.0)
+    return t0, tf, theta, X, U
 
 
 def flown_guess(problem: OcpProblem, nlp, initial_guess: dict | None) -> tuple[dict, list[dict]]:
     """The guess of the module docstring in the form of a stored answer, and per phase where its
     flight stopped (``{"phase", "stopped_at_t"}``; None: it flew to the end)."""
     stored = stored_phases(problem, initial_guess)
-    phases, notes = [], []
-    theta = None
+    flights, notes = [], []
+    theta = np.zeros(len(problem.parameters))
     for ph, b in zip(problem.phases, nlp.blocks):
-        old = stored.get(ph.name)
-        warm = None if old is None else {**old, "parameters": (initial_guess or {}).get("parameters")}
-        t0 = float(old["t0"]) if old is not None and "t0" in old else (
-            b.problem.phase.time.initial if b.problem.phase.time.initial is not None else 0.0)
-        t, X, U, tf, theta, stopped = _phase_flight(b, t0, warm)
-        traj = {"t": t.tolist(), **{s.name: X[i].tolist() for i, s in enumerate(b.problem.phase.states)},
-                **{k.name: U[i].tolist() for i, k in enumerate(b.problem.phase.controls)}}
-        phases.append({"name": ph.name, "t0": t0, "tf": tf, "trajectory": traj})
+        t0, tf, theta, X, U = phase_start(problem, ph, initial_guess, stored, b.nlp.grid)
+        t, Xf, Uf, stopped = fly(ph.problem, b.nlp.grid, t0=t0, tf=tf, theta=theta, X=X, U=U)
+        flights.append({"t0": t0, "tf": tf, "t": t, "X": Xf, "U": Uf})
         notes.append({"phase": ph.name, "stopped_at_t": stopped})
-    params = {} if theta is None else {q.name: float(v) for q, v in zip(problem.parameters, theta)}
-    if problem.single:
-        one = phases[0]
-        return {"trajectory": one["trajectory"], "tf": one["tf"], "parameters": params}, notes
-    return {"phases": phases, "parameters": params}, notes
+    return as_stored(problem, flights, theta), notes
 
 
 def rk4_stiffness(problem: OcpProblem, nlp, guess: dict) -> dict | None:

@@ -53,6 +53,8 @@ class Shared:
     names: Names
     accuracy: float | None
     accuracy_required: bool
+    starts: int = 1
+    seed: int = 0
 
 
 def parse_phase(raw: dict, *, path: str, shared: Shared, time: TimeSpec, objective: dict, limits: OcpLimits,

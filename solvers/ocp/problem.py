@@ -223,6 +223,8 @@ class OcpProblem:
     accuracy: float | None = None         # mesh refinement of every phase (solvers.ocp.refine)
     accuracy_required: bool = True        # False: a refinement that misses ``accuracy`` ends with a note
     single: bool = False                  # posed with the single-phase fields (no ``phases``)
+    starts: int = 1                       # search.starts: initial guesses (solvers.ocp.starts)
+    seed: int = 0                         # search.seed: the varied starts' random numbers
 
     @property
     def phase_names(self) -> tuple[str, ...]:

@@ -36,6 +36,7 @@ class OcpLimits:
     max_intervals: int = 1000
     max_constraints: int = 200
     max_refinements: int = 20          # transcription.max_refinements (mesh-refinement rounds)
+    max_starts: int = 16               # search.starts (initial guesses, each a solve)
 
 
 def expression_parser(limits: OcpLimits):

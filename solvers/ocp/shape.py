@@ -20,7 +20,7 @@ PHASE_SECTIONS = ("states", "controls", "time", "expressions", "dynamics", "path
                   "guess")
 # what every phase shares, at the top level
 SHARED = ("title", "constants", "tables", "parameters", "objective", "guess", "plots", "accuracy",
-          "accuracy_required")
+          "accuracy_required", "search")
 
 FIELDS: dict[str, tuple[str, ...]] = {
     "params": tuple(dict.fromkeys((*SHARED[:4], *PHASE_SECTIONS, *SHARED[4:]))),   # posed as one phase
@@ -41,4 +41,5 @@ FIELDS: dict[str, tuple[str, ...]] = {
     "guess": ("states", "controls", "tf", "from_job"),
     "phase.guess": ("states", "controls", "tf"),
     "params.phases.guess": ("from_job",),
+    "search": ("starts", "seed"),
 }

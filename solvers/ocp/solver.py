@@ -109,7 +109,7 @@ class OcpSolve:
         n = len(problem.phases)
         progress(0.0, "building the NLP" if problem.single else f"building the NLP of {n} phases")
         ipopt = self.ipopt
-        if ipopt is None and initial_guess:
+        if ipopt is None and initial_guess and "start" not in initial_guess:   # a varied start is not near an optimum
             ipopt = WARM_IPOPT
         nlp = TrajectoryNLP(problem, ipopt=ipopt)
         placed = Placed(problem, nlp, initial_guess)

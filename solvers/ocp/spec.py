@@ -72,7 +72,8 @@ def parse_problem(params: dict, limits: OcpLimits = DEFAULT_LIMITS) -> OcpProble
     return OcpProblem(title=shared.title, constants=shared.constants, tables=shared.tables,
                       parameters=shared.parameters, phases=(NamedPhase("", window, one),), objective=one.objective,
                       from_job=one.phase.guess.from_job, plots=_plots(params, [one]), accuracy=shared.accuracy,
-                      accuracy_required=shared.accuracy_required, single=True)
+                      accuracy_required=shared.accuracy_required, single=True, starts=shared.starts,
+                      seed=shared.seed)
 
 
 def _shared(params: dict, limits: OcpLimits) -> Shared:
@@ -138,8 +139,30 @@ def _shared(params: dict, limits: OcpLimits) -> Shared:
     accuracy_required = params.get("accuracy_required", True)
     if not isinstance(accuracy_required, bool):
         raise OcpInputError(f"{P}.accuracy_required", "expected true or false")
+    starts, seed = _search(params, limits)
     return Shared(title=title, tables=tuple(tables), constants=tuple(constants), parameters=tuple(parameters),
-                  names=names, accuracy=accuracy, accuracy_required=accuracy_required)
+                  names=names, accuracy=accuracy, accuracy_required=accuracy_required, starts=starts, seed=seed)
+
+
+def _search(params: dict, limits: OcpLimits) -> tuple[int, int]:
+    """``search: {"starts", "seed"}``: how many initial guesses (solvers.ocp.starts), within the limit."""
+    P = "params.search"
+    search = object_at(params.get("search"), P)
+    unknown_fields(search, FIELDS["search"], P)
+    out = []
+    for key, default, lo, hi in (("starts", 1, 1, limits.max_starts), ("seed", 0, 0, 2**31 - 1)):
+        v = search.get(key, default)
+        if v is None:
+            v = default
+        if isinstance(v, bool) or not isinstance(v, int):
+            raise OcpInputError(f"{P}.{key}", "expected an integer")
+        if v < lo:
+            raise OcpInputError(f"{P}.{key}", f"at least {lo}")
+        if v > hi:
+            raise OcpInputError(f"{P}.{key}", f"{v} starts exceed the limit max_starts={hi}" if key == "starts"
+                                else f"at most {hi}")
+        out.append(v)
+    return out[0], out[1]
 
 
 def _several(params: dict, shared: Shared, objective: dict, limits: OcpLimits) -> OcpProblem:
@@ -194,7 +217,7 @@ def _several(params: dict, shared: Shared, objective: dict, limits: OcpLimits) -
                                           integrand_text=str(integrand or "")),
                       links=links, time_links=time_links, state_links=state_links, from_job=from_job,
                       plots=_plots(params, [p.problem for p in phases]), accuracy=shared.accuracy,
-                      accuracy_required=shared.accuracy_required)
+                      accuracy_required=shared.accuracy_required, starts=shared.starts, seed=shared.seed)
 
 
 def _plots(params: dict, phases: list[PhaseProblem]) -> tuple[tuple[str, str], ...]:

@@ -194,8 +194,8 @@ def test_max_refinements_past_the_setting_is_refused_naming_it():
     with pytest.raises(OcpInputError) as exc:
         parse_problem(params, OcpLimits(max_refinements=3))
     assert "max_refinements" in str(exc.value)
-    from app.kinds.ocp.params import _setting_of
-    assert "TRAJLAB_OCP_MAX_REFINEMENTS" in _setting_of(str(exc.value.reason))
+    from app.kinds.ocp.service_limits import setting_of
+    assert "TRAJLAB_OCP_MAX_REFINEMENTS" in setting_of(str(exc.value.reason))
 
 
 def test_without_accuracy_the_grid_is_the_one_given():

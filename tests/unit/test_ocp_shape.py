@@ -15,7 +15,7 @@ MODELS = {
     "parameter": models.OcpParameter, "table": models.OcpTable, "time": models.OcpTime,
     "phase.time": models.OcpPhaseTime, "constraint": models.OcpConstraint, "link": models.OcpLink,
     "objective": models.OcpObjective, "transcription": models.OcpTranscription, "guess": models.OcpGuess,
-    "phase.guess": models.OcpPhaseGuess,
+    "phase.guess": models.OcpPhaseGuess, "search": models.OcpSearch,
 }
 
 

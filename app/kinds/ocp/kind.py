@@ -16,14 +16,13 @@ from app.kinds.base import (
     KindSpec,
     Preset,
     RunOutcome,
-    outcome_from_status,
 )
-from app.kinds.ocp.advice import advice
 from app.kinds.ocp.footprint import MEMORY, compare_series, trajectory_table
 from app.kinds.ocp.headlines import headlines
 from app.kinds.ocp.params import OcpParams
 from app.kinds.ocp.plots import plots
-from app.kinds.ocp.result import OcpResult, build_result
+from app.kinds.ocp.result import OcpResult
+from app.kinds.ocp.search import run_search, solve_one
 from app.kinds.ocp.trade import swept_label, trade_outputs
 from app.kinds.ocp.warm_start import WARM_START_FIELD, load_warm_start, misfit
 from app.results.tables import columns_at
@@ -45,29 +44,21 @@ PRESETS = _presets()
 
 
 def run(params: OcpParams, ctx: JobContext) -> RunOutcome:
-    import solvers.ocp as solver
-
     t_start = time.perf_counter()
     problem = params.problem
     from_job = params.initial_guess.from_job
     guess = load_warm_start(ctx, from_job, problem) if from_job else None
+    if problem.starts > 1:                  # several starts, fanned out (app/kinds/ocp/search.py)
+        return run_search(params, ctx, guess, from_job=from_job)
     try:
-        sol = solver.solve(problem, initial_guess=guess, on_progress=ctx.progress, should_stop=ctx.should_stop)
+        return solve_one(params, problem, guess, on_progress=ctx.progress, should_stop=ctx.should_stop,
+                         wall_start=t_start, warm_start=from_job)
     except (KeyError, TypeError, ValueError) as exc:
         if guess is None:
             raise
         # a stored result the solver cannot map onto this problem (other states, say)
         raise JobFailure("invalid_input", f"{WARM_START_FIELD}: job {from_job} does not fit this problem "
                                           f"({type(exc).__name__}: {str(exc)[:200]})") from None
-    result = build_result(sol, params, wall_time_s=time.perf_counter() - t_start, warm_start=from_job)
-    outcome = outcome_from_status(sol.status, result)
-    if outcome.error is not None:           # what to try, by this problem's cause and transcription
-        details = outcome.error.get("details") or {}
-        lines = advice(outcome.error["code"], details, problem, message=outcome.error.get("message") or "",
-                       result=result)
-        if lines:
-            outcome.error["details"] = {**details, "advice": lines}
-    return outcome
 
 
 def _limits_held(verification) -> bool | None:
@@ -125,8 +116,9 @@ def _phase_bodies(params: dict) -> list[dict]:
 def cost(params: dict) -> float:
     """Work units: the sum over the phases of intervals x steps per interval x (states + controls) x
     expression size, scaled to the reference above; times the refinement rounds when ``accuracy`` asks
-    for mesh refinement."""
-    return sum(_phase_cost(body) for body in _phase_bodies(params))
+    for mesh refinement; times ``search.starts`` (each start a solve)."""
+    starts = int(((params.get("search") or {}).get("starts")) or 1)
+    return starts * sum(_phase_cost(body) for body in _phase_bodies(params))
 
 
 def _phase_cost(params: dict) -> float:

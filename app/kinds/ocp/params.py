@@ -14,13 +14,13 @@ overrides are merged.  :func:`app.service.params.resolve_params` validates that 
 """
 from __future__ import annotations
 
-from dataclasses import fields
 from typing import Any, Literal
 
 from pydantic import Field, PrivateAttr, field_validator, model_validator
 from pydantic_core import PydanticCustomError, ValidationError
 
 from app.kinds.base import StrictModel
+from app.kinds.ocp.service_limits import limits, setting_of
 from app.kinds.renamed import move_renamed
 
 NAME_PATTERN = r"^[A-Za-z_][A-Za-z0-9_]*$"
@@ -163,6 +163,14 @@ class OcpGuess(StrictModel):
         return v
 
 
+class OcpSearch(StrictModel):
+    """Several starts: the problem solved from several initial guesses, the best answer kept."""
+
+    starts: int = Field(1, ge=1, description="Initial guesses (capped by TRAJLAB_OCP_MAX_STARTS): the one given and "
+                        "starts - 1 varied ones (result: search.rule), fanned out across the workers", examples=[1])
+    seed: int = Field(0, ge=0, le=2**31 - 1, description="Seed of the varied starts' random numbers", examples=[0])
+
+
 class OcpPhaseTime(StrictModel):
     """A phase's time window.  The first phase starts at 0 unless ``initial`` (or its bounds) is given;
     a later phase starts where the one before ends unless a link says otherwise."""
@@ -261,6 +269,7 @@ class OcpParams(StrictModel):
     accuracy_required: bool = Field(True, description="With `accuracy`: true fails the job as "
                                     "accuracy_not_reached when the refinement rounds end short of it (the best "
                                     "round stored); false accepts the best round with a note", examples=[True])
+    search: OcpSearch = Field(default_factory=OcpSearch, description="Several starts: keep the best of several guesses")
     phases: list[OcpPhase] | None = Field(
         None, max_length=20, description="Several phases instead of the single-phase fields (states, controls, "
         "time, expressions, dynamics, path, boundary, transcription): each a single-phase block with a name; "
@@ -296,40 +305,6 @@ class OcpParams(StrictModel):
 
 
 # --- the whole-problem check ----------------------------------------------------------------------
-SETTING_PREFIX = "TRAJLAB_OCP_"
-
-
-def _settings(settings=None):
-    if settings is None:
-        from app.runtime.settings import get_settings
-
-        settings = get_settings()
-    return settings
-
-
-def limits(settings=None):
-    """The :class:`solvers.ocp.spec.OcpLimits` of the service settings (``TRAJLAB_OCP_MAX_*``)."""
-    from solvers.ocp.spec import OcpLimits
-
-    settings = _settings(settings)
-    values = {f.name: getattr(settings, f"ocp_{f.name}") for f in fields(OcpLimits)
-              if hasattr(settings, f"ocp_{f.name}")}
-    return OcpLimits(**values)
-
-
-def _setting_of(reason: str) -> str:
-    """The reason with the setting that raises each limit it names (``max_states`` ->
-    ``TRAJLAB_OCP_MAX_STATES``), so a 422 says what to change."""
-    from solvers.ocp.spec import OcpLimits
-
-    named = [f.name for f in fields(OcpLimits) if f.name in reason]
-    # longest first: max_expression_nodes before a shorter name it contains
-    named = [n for n in sorted(named, key=len, reverse=True)
-             if not any(n != m and n in m for m in named)]
-    settings = [SETTING_PREFIX + n.upper() for n in named if SETTING_PREFIX + n.upper() not in reason]
-    return f"{reason} (setting {', '.join(settings)})" if settings else reason
-
-
 # The parser (solvers.ocp) reads the problem-level guess as "guess"; the API's name is initial_guess.
 PARSER_GUESS = "guess"
 
@@ -376,7 +351,7 @@ def check_problem(params: OcpParams, settings=None):
     try:
         return parse_problem(data, limits(settings))
     except OcpInputError as exc:
-        _fail(_loc(exc.path), _setting_of(str(exc.reason)), data)
+        _fail(_loc(exc.path), setting_of(str(exc.reason)), data)
     except RecursionError:   # defence in depth: the parser bounds its recursion by the node limit
         _fail((), "the problem is nested too deeply", data)
 

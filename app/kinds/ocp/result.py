@@ -231,6 +231,41 @@ class OcpResultPhase(ResultModel):
     solver: OcpResultPhaseSolver | None = Field(None, description="The phase's transcription")
 
 
+class OcpResultOptimum(ResultModel):
+    """One local optimum the starts met."""
+
+    objective: Num = Field(description="Its objective, in the user's sense (the best of its group)")
+    count: int = Field(description="How many starts ended there")
+
+
+class OcpResultStart(ResultModel):
+    """What became of one start."""
+
+    start: int = Field(description="The start's index (0: the guess given)")
+    status: str = Field(description="succeeded, failed or cancelled")
+    objective: Num = Field(None, description="Its objective, in the user's sense")
+    iterations: int | None = Field(None, description="Its IPOPT iterations")
+    code: str | None = Field(None, description="Its error code, when it failed")
+    message: str | None = Field(None, description="Its error message, when it failed (shortened)")
+    by: str | None = Field(None, description="The worker that computed it")
+
+
+class OcpResultSearch(ResultModel):
+    """Several starts (params.search): how many, how many succeeded, the local optima they met."""
+
+    starts: int = Field(description="Initial guesses solved from")
+    succeeded: int = Field(description="Starts that succeeded")
+    distinct_optima: list[OcpResultOptimum] = Field(description="The succeeded starts' objectives grouped "
+                                                    "within `tolerance` (relative), best first")
+    best_start: int | None = Field(description="The start whose answer is the result (all failed: the one "
+                                   "that came closest)")
+    rule: str = Field(description="How the varied starts are made")
+    seed: int = Field(description="The seed of the varied starts' random numbers")
+    tolerance: float = Field(description="Relative difference under which two objectives are one optimum: "
+                             "the accuracy asked, else what the NLP's tolerance leaves (1e-5)")
+    each: list[OcpResultStart] = Field(description="Every start, in order")
+
+
 class OcpResult(ResultModel):
     """Result of an ``ocp`` job: the optimal trajectory of your problem, its solve and its independent
     verification (the controls re-flown by another integrator on a dense grid)."""
@@ -262,6 +297,8 @@ class OcpResult(ResultModel):
     warm_start: str | None = Field(None, description="The job this solve was warm-started from")
     wall_time_s: Num = Field(None, description="Wall time of the job's run (s)")
     notes: list[str] = Field(description="How the answer was obtained and what to keep in mind")
+    search: OcpResultSearch | None = Field(None, description="Several starts (params.search.starts > 1): the "
+                                           "result is the best start's")
 
 
 def _map(d) -> dict:

@@ -1,0 +1,129 @@
+"""A job's pieces of work fanned out over the workers that exist (``JobContext.run_pieces``), as a study's
+points are: each piece is a message any worker may take, and the job works through them too.
+
+The job stores the spec in Redis, publishes one ``trajlab.piece`` message per piece on the heavy queue,
+then claims and computes pieces itself until none is left unclaimed, and waits for the others' outputs.
+A piece is claimed with ``SET NX`` under a lease its computer keeps renewing (a thread, every third of
+the lease), so a piece whose worker died is claimed again once its lease runs out, by the job at the
+latest; a duplicate is harmless (a piece is a pure function of the spec and its index).  A cancelled job
+sets a stop key that the pieces' ``should_stop`` reads, so other workers stop too.  Unlike the Monte Carlo
+fan-out (``worker/fanout.py``), a piece may take minutes (a solve), hence the leases.
+"""
+from __future__ import annotations
+
+import json
+import threading
+import time
+import uuid
+from typing import Callable
+
+import redis
+
+from app.kinds import KINDS  # noqa: F401  (the registry imports every kind, which declares its pieces)
+from app.kinds.base import PIECES, JobCancelled, piece_name, run_piece
+from app.service.broker import QUEUE_HEAVY
+
+KEY_TTL_S = 24 * 3600
+LEASE_S = 30.0
+STOP_POLL_S = 0.5
+
+
+def _keys(run_id: str) -> dict[str, str]:
+    base = f"trajlab:pieces:{run_id}"
+    return {"spec": f"{base}:spec", "results": f"{base}:results", "claim": f"{base}:claim", "stop": f"{base}:stop"}
+
+
+class _Lease:
+    """Renews a claim while its piece is computed."""
+
+    def __init__(self, r: redis.Redis, key: str):
+        self.r, self.key, self.done = r, key, threading.Event()
+        self.thread = threading.Thread(target=self._renew, name=f"lease-{key}", daemon=True)
+
+    def _renew(self) -> None:
+        while not self.done.wait(LEASE_S / 3):
+            try:
+                self.r.expire(self.key, int(LEASE_S))
+            except redis.RedisError:  # the lease lapses; the piece may be computed twice, harmlessly
+                pass
+
+    def __enter__(self):
+        self.thread.start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.done.set()
+        self.thread.join(timeout=5)
+
+
+def _stop_reader(r: redis.Redis, stop_key: str, also: Callable[[], bool]) -> Callable[[], bool]:
+    last = [0.0, False]
+
+    def should_stop() -> bool:
+        if also():
+            return True
+        now = time.monotonic()
+        if now - last[0] > STOP_POLL_S:
+            last[0] = now
+            try:
+                last[1] = bool(r.exists(stop_key))
+            except redis.RedisError:
+                pass
+        return bool(last[1])
+    return should_stop
+
+
+def compute_piece(r: redis.Redis, run_id: str, index: int, *, who: str,
+                  should_stop: Callable[[], bool] = lambda: False) -> bool:
+    """Claim and compute one piece; False if it is claimed or done already, or the run is over."""
+    keys = _keys(run_id)
+    if r.hexists(keys["results"], str(index)):
+        return False
+    claim = f"{keys['claim']}:{index}"
+    if not r.set(claim, who, nx=True, ex=int(LEASE_S)):
+        return False
+    raw = r.get(keys["spec"])
+    if raw is None:   # the run finished or expired
+        return False
+    run = json.loads(raw)
+    fn = PIECES.get(run["name"])
+    with _Lease(r, claim):
+        if fn is None:
+            out = {"raised": f"LookupError: no piece named {run['name']} in this worker"}
+        else:
+            out = run_piece(fn, run["spec"], index, _stop_reader(r, keys["stop"], should_stop))
+    r.hset(keys["results"], str(index), json.dumps({"by": who, "output": out}))
+    r.expire(keys["results"], KEY_TTL_S)
+    return True
+
+
+def run_distributed(celery, r: redis.Redis, fn, spec: dict, count: int, *, label: str, who: str,
+                    should_stop: Callable[[], bool], on_progress: Callable[[float, str], None]) -> list[dict]:
+    """The pieces' outputs in index order (module docstring); ``{"by"}`` in each says which worker computed it."""
+    run_id = uuid.uuid4().hex
+    keys = _keys(run_id)
+    r.set(keys["spec"], json.dumps({"name": piece_name(fn), "spec": spec}), ex=KEY_TTL_S)
+    for i in range(count):
+        celery.send_task("trajlab.piece", args=[run_id, i], queue=QUEUE_HEAVY)
+
+    def report() -> int:
+        done = int(r.hlen(keys["results"]))
+        on_progress(done / count, f"{label} {done}/{count} done")
+        return done
+
+    try:
+        while True:
+            if should_stop():
+                r.set(keys["stop"], "1", ex=KEY_TTL_S)
+                raise JobCancelled(f"cancelled during the {label}s")
+            for i in range(count):
+                if compute_piece(r, run_id, i, who=who, should_stop=should_stop):
+                    report()
+            if report() >= count:
+                break
+            time.sleep(0.2)     # the others' pieces: claimed and leased, or reclaimed above when a lease lapsed
+        raw = r.hgetall(keys["results"])
+        entries = [json.loads(raw[str(i).encode()]) for i in range(count)]
+    finally:
+        r.delete(keys["spec"], keys["results"], *[f"{keys['claim']}:{i}" for i in range(count)])
+    return [{**e["output"], "by": e["by"]} for e in entries]
