@@ -7,21 +7,29 @@ own interval errors and path excesses (a phase already within the accuracy, its 
 values held, keeps its mesh).  The worst scaled state error over the phases is the round's error.
 Two planners:
 
-* with ``accuracy`` (``shared/specs/ocp.md``, "Mesh refinement"): each round re-flies every interval
-  from its own first node (:func:`solvers.ocp.verify.verify` with ``local=True``), splits the
-  multiple-shooting intervals that miss their share of the accuracy or raises the degree of / splits
-  the LGL intervals (:mod:`solvers.transcription.refine`), splits the intervals where a path limit
-  is still exceeded after the tightening rounds, and solves again warm-started from the previous
-  answer interpolated onto the new mesh; until the re-flown states agree with the answer to
-  ``accuracy`` (each state scaled by its ``scale``), every path limit holds on the dense grid and
-  every terminal value holds, at most ``transcription.max_refinements`` rounds.  A fixed final value
-  missed while the accuracy is met lowers that round's target to the terminal tolerance.
+* with ``accuracy`` (``shared/specs/ocp.md``, "Mesh refinement": the accuracy of the *answer*, its states
+  and its objective against the continuous optimum): each round solves on its mesh and checks the answer
+  against a solve on the nested finer mesh (:mod:`solvers.ocp.estimate`: every interval cut in two or
+  three, warm-started), which estimates the objective's relative error and the states' scaled error and
+  shares them among the intervals (where the controls move when the mesh is refined: a switch or a kink
+  inside an interval); the next mesh splits the intervals that hold more than their share (multiple
+  shooting) or raises their degree / splits them (LGL), together with the intervals whose own re-flight
+  from their first node misses (:func:`solvers.ocp.verify.local_errors`,
+  :mod:`solvers.transcription.refine`) and those where a path limit is still exceeded after the
+  tightening rounds; solved again warm-started from the check's answer (a next mesh that is the check's
+  is the check's solve, not solved twice); until both estimates are within ``accuracy``, every path limit
+  holds on the dense grid and every terminal value holds, at most ``transcription.max_refinements``
+  rounds.  A fixed final value missed while the accuracy is met lowers that round's target to the
+  terminal tolerance.
 * without ``accuracy`` the grid is the one given; only a final value missed on the re-flight
   (:mod:`solvers.ocp.terminal`) refines it uniformly (twice the RK4 steps or twice the LGL
   segments), at most ``TERMINAL_ROUNDS`` times (every phase not yet at its cap).
 
-Every round is a record of ``solver.refinement`` (round, intervals over all phases, max_error,
-objective, iterations, time_s); the answer returned is the accepted round's, else the best round's, whose
+Either way the answer carries ``solver.accuracy`` (requested, state_error, objective_error_estimate,
+reached, how they were estimated and the check's numbers); without ``accuracy`` the answer is checked
+once, after the loop.  Every round is a record of ``solver.refinement`` (round, intervals over all
+phases, max_error: the re-flight's, state_error, objective, objective_error_estimate, the check's
+intervals, objective and iterations, iterations, time_s); the answer returned is the accepted round's, else the best round's, whose
 verification describes its own grid.  Not reaching the accuracy fails the job as
 ``accuracy_not_reached`` with that answer stored, or, with ``accuracy_required: false``, ends with a
 note.
@@ -29,11 +37,14 @@ note.
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import replace
 
 import numpy as np
 
 from solvers.common import Outcome
+from solvers.ocp.estimate import METHOD as ESTIMATE_METHOD
+from solvers.ocp.estimate import Estimate, estimate, halved, parts_of, plan_estimate, same_mesh, union
 from solvers.ocp.problem import OcpProblem, PhaseProblem
 from solvers.ocp.terminal import TERMINAL_TOLERANCE, finer, grid_words
 from solvers.ocp.verify import LIMIT_TOLERANCE
@@ -41,6 +52,14 @@ from solvers.transcription import refine as rf
 
 MAX_INTERVALS = 1000       # a refined mesh never grows past the service's default interval limit
 MAX_NODES = 12             # LGL nodes per interval (the request's transcription.nodes limit)
+# The check starts from the answer, but a bang-bang answer interpolated onto a finer mesh is no longer at
+# the bounds where it should be: IPOPT's own defaults take it there in fewer iterations than the small
+# barrier of a warm start (lunar lander 60 -> 120 intervals: 12 iterations instead of 44).
+CHECK_IPOPT: dict | None = {}
+STALL = 0.5                # a round that does not cut the error to this fraction of the best is no progress
+STALL_GROWTH = 4           # refined everywhere after a stall up to this many times the first round's intervals
+STALL_FLOOR = 200          # (or this many)
+CHECK_REUSE = 0.6          # a plan with this share of the check mesh's intervals takes the check mesh
 
 
 def mesh_of(problem: PhaseProblem) -> rf.Mesh:
@@ -96,6 +115,33 @@ class Trial:
         self.iterations = sol.status.iterations
         self.intervals = sum(ph.problem.transcription.intervals for ph in problem.phases)
         self._views: dict[int, PhaseView] = {}
+        self.estimate: Estimate | None = None      # against the check on the finer mesh (solvers.ocp.estimate)
+        self.fine: Trial | None = None             # that check's own solve
+        self.check_failure = ""
+
+    @property
+    def state_error(self) -> float:
+        """The states' error against the optimum: the re-flight's, or the change against the check if larger."""
+        return self.max_error if self.estimate is None else max(self.max_error, self.estimate.state_change)
+
+    @property
+    def objective_error_estimate(self) -> float | None:
+        return None if self.estimate is None else self.estimate.objective_error
+
+    @property
+    def error(self) -> float:
+        """What the loop keeps the best round by: the worse of the two estimates (unknown: infinite)."""
+        obj = self.objective_error_estimate
+        return max(self.state_error, math.inf if obj is None else obj)
+
+    def record(self) -> dict:
+        """This round's estimates in ``solver.refinement`` (:func:`solvers.transcription.refine.record`)."""
+        obj = self.objective_error_estimate
+        out = {"state_error": self.state_error if math.isfinite(self.state_error) else None,
+               "objective_error_estimate": obj if obj is not None and math.isfinite(obj) else None}
+        if self.estimate is not None:
+            out.update(self.estimate.words())
+        return out
 
     def phase(self, i: int) -> PhaseView:
         if i not in self._views:
@@ -144,9 +190,49 @@ class Refinement:
         self.trials: list[Trial] = []
 
     def _round(self, problem: OcpProblem, previous, on_progress) -> Trial:
-        warm = previous.sol.warm() if isinstance(previous, Trial) else previous
+        if isinstance(previous, Trial):       # the check's answer is the nearer start, when there is one
+            warm = (previous.fine or previous).sol.warm()
+        else:
+            warm = previous
         self.trials.append(Trial(self.solve.on_grid(problem, warm, on_progress), problem))
         return self.trials[-1]
+
+    def check(self, trial: Trial, on_progress=None) -> None:
+        """The check solve of ``trial`` on its finer nested mesh, warm-started, and its estimate
+        (:mod:`solvers.ocp.estimate`); a check that does not converge leaves the estimate unknown."""
+        stop = self.solve.should_stop
+        if not trial.converged or (stop is not None and stop()):
+            trial.check_failure = "the answer did not converge" if not trial.converged else "cancelled"
+            return
+        meshes = tuple(halved(mesh_of(ph.problem), parts_of(ph.problem.transcription)) for ph in trial.problem.phases)
+        problem = on_meshes(trial.problem, meshes)
+        t0 = time.perf_counter()
+        saved = self.solve.ipopt
+        if saved is None and CHECK_IPOPT is not None:
+            self.solve.ipopt = CHECK_IPOPT
+        try:
+            fine = Trial(self.solve.on_grid(problem, trial.sol.warm(), on_progress), problem)
+        finally:
+            self.solve.ipopt = saved
+        if not fine.converged:
+            trial.check_failure = f"the check on {fine.intervals} intervals: {fine.sol.status.message}"
+            return
+        trial.fine, trial.estimate = fine, estimate(trial, fine)
+        trial.estimate.check_time_s = time.perf_counter() - t0
+
+    def accuracy_block(self, trial: Trial, requested: float | None, reached: bool | None) -> dict:
+        """``solver.accuracy`` of the answer ``trial``."""
+        obj = trial.objective_error_estimate
+        block = {"requested": requested,
+                 "state_error": trial.state_error if math.isfinite(trial.state_error) else None,
+                 "objective_error_estimate": obj if obj is not None and math.isfinite(obj) else None,
+                 "reached": reached, "estimated_by": ESTIMATE_METHOD,
+                 "reflight_state_error": trial.max_error if math.isfinite(trial.max_error) else None}
+        if trial.estimate is not None:
+            block.update(trial.estimate.words(), check_time_s=trial.estimate.check_time_s)
+        else:
+            block["check_failure"] = trial.check_failure
+        return block
 
     def to_accuracy(self):
         """The loop with the accuracy planner; returns the solution to report (module docstring)."""
@@ -154,14 +240,33 @@ class Refinement:
 
         def solve(meshes, previous):
             intervals = sum(m.intervals for m in meshes)
-            return self._round(on_meshes(problem, meshes), previous,
-                               round_progress(progress, len(self.trials), intervals))
+            report = round_progress(progress, len(self.trials), intervals)
+            fine = previous.fine if isinstance(previous, Trial) else None
+            if fine is not None and all(same_mesh(mesh_of(ph.problem), m) for ph, m in zip(fine.problem.phases, meshes)):
+                self.trials.append(fine)          # the plan is the check's mesh: its solve is this round's
+                trial = fine
+            else:
+                trial = self._round(on_meshes(problem, meshes), previous, report)
+            self.check(trial, None if report is None else (lambda f, m: report(1.0, "objective error check: " + m)))
+            return trial
 
         def accept(trial: Trial) -> bool:
-            return trial.sol.status.outcome is Outcome.OPTIMAL and trial.max_error <= accuracy
+            obj = trial.objective_error_estimate
+            return trial.sol.status.outcome is Outcome.OPTIMAL and trial.state_error <= accuracy \
+                and obj is not None and obj <= accuracy
 
         def plan(meshes, trial: Trial, history):
+            errors = [t.error for _, t in history]
+            if len(errors) >= 3 and min(errors[-2:]) > STALL * min(errors[:-2]):
+                return None               # two rounds without halving the error: no progress to buy
+            check = None if trial.fine is None else tuple(mesh_of(ph.problem) for ph in trial.fine.problem.phases)
+            if check is not None and len(errors) >= 2 and errors[-1] > STALL * min(errors[:-1]):
+                # the last plan did not halve the error: where it lies was misjudged; refine everywhere
+                cap = min(MAX_INTERVALS, max(STALL_FLOOR, STALL_GROWTH * history[0][1].intervals))
+                return check if sum(m.intervals for m in check) <= cap else None
             out, changed = [], False
+            shares = trial.estimate.shares if trial.estimate is not None else None
+            total = 0.0 if trial.estimate is None else max(trial.estimate.objective_error, trial.estimate.state_change)
             for i, (ph, mesh) in enumerate(zip(trial.problem.phases, meshes)):
                 view = trial.phase(i)
                 held = view.verification.get("limits_held", True) and view.verification.get("terminal_held", True)
@@ -169,8 +274,18 @@ class Refinement:
                 if not (view.max_error <= accuracy and held):
                     nxt = plan_phase(ph.problem.transcription, mesh, view,
                                      [(m[i], t.phase(i)) for m, t in history], accuracy)
+                if shares is None:            # no estimate (its check failed): halve every interval
+                    nxt = union(nxt, halved(mesh))
+                elif total > accuracy:
+                    nxt = union(nxt, plan_estimate(ph.problem.transcription, mesh, total * shares[i],
+                                                   rf.SAFETY * accuracy, n_max=MAX_NODES))
+                if nxt is not None and nxt.intervals > MAX_INTERVALS:
+                    nxt = None
                 out.append(mesh if nxt is None else nxt)
                 changed |= nxt is not None
+            if changed and check is not None and \
+                    sum(m.intervals for m in out) >= CHECK_REUSE * sum(m.intervals for m in check):
+                return check                  # nearly the check's mesh: its solve is there already
             return tuple(out) if changed else None
 
         max_rounds = max(ph.problem.transcription.max_refinements for ph in problem.phases)
@@ -183,7 +298,8 @@ class Refinement:
             out.best.sol.status.outcome = Outcome.CANCELLED
             out.best.sol.status.message = "cancelled between mesh-refinement rounds"
         sol = self._account(out)
-        sol.solver.update(refinement=out.rounds, accuracy=accuracy, accuracy_reached=out.reached)
+        best: Trial = out.best
+        sol.solver.update(refinement=out.rounds, accuracy=self.accuracy_block(best, accuracy, out.reached))
         summary = (rounds_summary("mesh", accuracy, out.rounds) if problem.single
                    else rounds_summary("every phase's mesh", accuracy, out.rounds) + " over all phases")
         if out.reached:
@@ -196,8 +312,9 @@ class Refinement:
             if sol.status.outcome is Outcome.TERMINAL_NOT_HELD:
                 sol.notes.append("terminal: " + sol.status.message)
             sol.status.outcome = Outcome.ACCURACY_NOT_REACHED
-            sol.status.message = (f"the re-flown states depart from the answer by {err_words(out.best.max_error)} "
-                                  f"(scaled), more than the accuracy {accuracy:g}, after {len(out.rounds) - 1} "
+            sol.status.message = (f"the answer's estimated error (states {err_words(best.state_error)}, objective "
+                                  f"{err_words(best.objective_error_estimate)}, relative) is more than the "
+                                  f"accuracy {accuracy:g} after {len(out.rounds) - 1} "
                                   f"refinement round(s) ({why}; transcription.max_refinements {max_rounds}); the "
                                   "best round is stored; accuracy_required: false accepts it with a note")
             sol.status.details["refinement"] = out.rounds
@@ -227,6 +344,15 @@ class Refinement:
                         should_stop=self.solve.should_stop, previous=self.solve.initial_guess)
         out.best = out.last      # the last round is the answer here: a terminal miss refined is kept either way
         sol = self._account(out)
+        self.check(out.best, None if self.solve.on_progress is None
+                   else (lambda f, m: self.solve.on_progress(1.0, "objective error check: " + m)))
+        sol.solver["accuracy"] = self.accuracy_block(out.best, None, None)
+        if out.best.estimate is not None:
+            sol.notes.append(f"objective error estimated at {err_words(out.best.objective_error_estimate)} "
+                             f"(relative), states at {err_words(out.best.state_error)} (scaled): "
+                             + ESTIMATE_METHOD + f" ({out.best.estimate.check_intervals} intervals)")
+        elif out.best.converged:
+            sol.notes.append("objective error not estimated: " + out.best.check_failure)
         if words:
             held = sol.verification.get("terminal_held")
             sol.notes.insert(0, "terminal conditions missed on the re-flight, grid refined (warm-started): "
@@ -267,10 +393,12 @@ def _round_of(out) -> int:
 
 
 def rounds_summary(what: str, accuracy: float, rounds: list[dict]) -> str:
-    """The note that opens a refined answer: each round's intervals and worst scaled state error."""
+    """The note that opens a refined answer: each round's intervals and estimated errors."""
     return (f"{what} refined to the accuracy {accuracy:g}: "
-            + " -> ".join(f"{r['intervals']} ({err_words(r['max_error'])})" for r in rounds)
-            + " intervals (worst scaled state error)")
+            + " -> ".join(f"{r['intervals']} ({err_words(r.get('state_error'))}, "
+                          f"{err_words(r.get('objective_error_estimate'))})" for r in rounds)
+            + " intervals (estimated error of the states, scaled, and of the objective, relative; "
+            + ESTIMATE_METHOD + ")")
 
 
 def err_words(v) -> str:

@@ -33,10 +33,19 @@ class Numbers:
     path_slices: slice | None
 
 
+def state_scales(problem: PhaseProblem) -> np.ndarray:
+    """Each state's ``scale``, or a typical magnitude from its bounds and ends."""
+    return np.array([s.scale or positive_scale(s.lower, s.upper, s.initial, s.final) for s in problem.phase.states])
+
+
+def control_scales(problem: PhaseProblem) -> np.ndarray:
+    """Each control's ``scale``, or a typical magnitude from its bounds."""
+    return np.array([k.scale or positive_scale(k.lower, k.upper) for k in problem.phase.controls])
+
+
 def _scales(problem: PhaseProblem, tf_guess: float):
     ph = problem.phase
-    xs = np.array([s.scale or positive_scale(s.lower, s.upper, s.initial, s.final) for s in ph.states])
-    us = np.array([k.scale or positive_scale(k.lower, k.upper) for k in ph.controls])
+    xs, us = state_scales(problem), control_scales(problem)
     ts = positive_scale(ph.time.initial, tf_guess, ph.time.final_upper)
     ths = np.array([positive_scale(q.lower, q.upper, q.guess) for q in problem.parameters])
     return xs, us, ts, ths

@@ -37,7 +37,8 @@ The loop (:func:`refine`)
     verifies on ``mesh``; ``accept(trial) -> bool`` says the accuracy (and whatever else: limits that
     hold, terminal values) is reached; ``plan(mesh, trial, history) -> mesh | None`` proposes the next
     mesh (None: nothing left to refine).  A trial exposes ``converged`` (bool), ``max_error``,
-    ``objective``, ``iterations`` and ``intervals``.  The loop stops when a trial is accepted, when
+    ``objective``, ``iterations`` and ``intervals`` (and optionally ``error``, the one the best round is
+    chosen by, and ``record()``, more fields of its round's record).  The loop stops when a trial is accepted, when
     ``max_rounds`` refinements are spent, when a solve does not converge, when ``plan`` gives up
     or ``should_stop()``; it returns every round's record and the best trial (the accepted one, else
     the converged one with the smallest error).
@@ -252,9 +253,13 @@ class RefineResult:
 def record(k: int, trial, seconds: float) -> dict:
     """One round of ``solver.refinement``."""
     err = float(trial.max_error)
-    return {"round": k, "intervals": int(trial.intervals), "max_error": err if math.isfinite(err) else None,
-            "objective": float(trial.objective) if trial.objective is not None else None,
-            "iterations": int(trial.iterations), "time_s": round(seconds, 4)}
+    out = {"round": k, "intervals": int(trial.intervals), "max_error": err if math.isfinite(err) else None,
+           "objective": float(trial.objective) if trial.objective is not None else None,
+           "iterations": int(trial.iterations), "time_s": round(seconds, 4)}
+    extra = getattr(trial, "record", None)      # a kind's own estimates of the round (the ocp kind's)
+    if callable(extra):
+        out.update(extra())
+    return out
 
 
 def refine(*, mesh, solve: Callable, accept: Callable, plan: Callable, max_rounds: int,
@@ -293,7 +298,9 @@ def refine(*, mesh, solve: Callable, accept: Callable, plan: Callable, max_round
 
 
 def _better(a, b) -> bool:
-    ea, eb = float(a.max_error), float(b.max_error)
+    """``a`` has the smaller error: its ``error`` when the trial has one (all its estimates), else its
+    re-flight's ``max_error``."""
+    ea, eb = float(getattr(a, "error", a.max_error)), float(getattr(b, "error", b.max_error))
     if not math.isfinite(eb):
         return True
     return math.isfinite(ea) and ea < eb

@@ -28,9 +28,39 @@ class OcpRefinementRound(ResultModel):
     round: int = Field(description="0 for the grid as given, then 1, 2, ...")
     intervals: int = Field(description="Mesh intervals of this round")
     max_error: Num = Field(None, description="Worst scaled state difference of its re-flight (null: not re-flown)")
+    state_error: Num = Field(None, description="Estimated error of the states against the continuous optimum, "
+                             "each scaled by its scale: the re-flight's difference or twice the change against the "
+                             "check on the halved mesh, the larger (null: not estimated)")
     objective: Num = Field(None, description="Objective of this round's answer")
+    objective_error_estimate: Num = Field(None, description="Estimated relative error of the objective against "
+                                          "the continuous optimum: twice its relative change against the check "
+                                          "solve on the halved mesh (null: the check did not converge)")
+    check_intervals: int | None = Field(None, description="Intervals of the check solve (every interval halved)")
+    check_objective: Num = Field(None, description="Objective of the check solve")
+    check_iterations: int | None = Field(None, description="NLP iterations of the check solve (not in `iterations`)")
     iterations: int = Field(description="NLP iterations of this round (its limit rounds included)")
-    time_s: Num = Field(None, description="Wall time of the round: build, solve and re-flight (s)")
+    time_s: Num = Field(None, description="Wall time of the round: build, solve, re-flight and check (s)")
+
+
+class OcpResultAccuracy(ResultModel):
+    """The answer's accuracy against the continuous problem's optimum, estimated (with or without `accuracy`)."""
+
+    requested: Num = Field(None, description="The `accuracy` asked for (null: none; the grid as given)")
+    state_error: Num = Field(None, description="Estimated error of the states, each scaled by its scale: the "
+                             "larger of the re-flight's difference and twice the change against the check")
+    objective_error_estimate: Num = Field(None, description="Estimated relative error of the objective: twice "
+                                          "its relative change against the check solve on the halved mesh "
+                                          "(exact when halving halves the error, up to 2x high when it falls "
+                                          "faster); null when the check did not converge")
+    reached: bool | None = Field(None, description="Both estimates within `requested` (null: none requested)")
+    estimated_by: str | None = Field(None, description="How the estimates were made")
+    reflight_state_error: Num = Field(None, description="The re-flight's own worst scaled state difference "
+                                      "(the controls as returned, integrated independently)")
+    check_intervals: int | None = Field(None, description="Intervals of the check solve")
+    check_objective: Num = Field(None, description="Objective of the check solve")
+    check_iterations: int | None = Field(None, description="NLP iterations of the check solve")
+    check_time_s: Num = Field(None, description="Wall time of the check solve (s)")
+    check_failure: str | None = Field(None, description="Why there is no estimate (the check did not converge)")
 
 
 class OcpResultSolver(ResultModel):
@@ -53,8 +83,9 @@ class OcpResultSolver(ResultModel):
     refinement: list[OcpRefinementRound] | None = Field(
         None, description="Mesh refinement: each round's intervals, worst error, objective, iterations and "
         "time (with `accuracy`, or when a missed terminal value refined the grid); absent: none")
-    accuracy: Num = Field(None, description="The accuracy the mesh was refined to (null: none asked)")
-    accuracy_reached: bool | None = Field(None, description="The refinement reached `accuracy`")
+    accuracy: OcpResultAccuracy | None = Field(
+        None, description="The answer's estimated errors against the continuous optimum (states and objective), "
+        "the accuracy requested and whether both estimates reached it")
     boundaries: list[float] | None = Field(None, description="A non-uniform (refined) mesh: the interval boundaries "
                                            "as fractions of the horizon, to pose again as transcription.boundaries; "
                                            "null: equal intervals")
