@@ -192,3 +192,18 @@ def union(a: rf.Mesh | None, b: rf.Mesh | None) -> rf.Mesh | None:
             return np.asarray(m.node_counts)[np.searchsorted(m.boundaries, mid, side="right") - 1]
         nodes = tuple(int(v) for v in np.maximum(at(a), at(b)))
     return rf.Mesh(tuple(float(v) for v in cuts), nodes)
+
+
+def accuracy_block(trial, requested: float | None, reached: bool | None) -> dict:
+    """``solver.accuracy`` of the answer ``trial`` (a :class:`solvers.ocp.refine.Trial`)."""
+    obj = trial.objective_error_estimate
+    block = {"requested": requested,
+             "state_error": trial.state_error if math.isfinite(trial.state_error) else None,
+             "objective_error_estimate": obj if obj is not None and math.isfinite(obj) else None,
+             "reached": reached, "estimated_by": METHOD,
+             "reflight_state_error": trial.max_error if math.isfinite(trial.max_error) else None}
+    if trial.estimate is not None:
+        block.update(trial.estimate.words(), check_time_s=trial.estimate.check_time_s)
+    else:
+        block["check_failure"] = trial.check_failure
+    return block

@@ -44,7 +44,7 @@ import numpy as np
 
 from solvers.common import Outcome
 from solvers.ocp.estimate import METHOD as ESTIMATE_METHOD
-from solvers.ocp.estimate import Estimate, estimate, halved, parts_of, plan_estimate, same_mesh, union
+from solvers.ocp.estimate import Estimate, accuracy_block, estimate, halved, parts_of, plan_estimate, same_mesh, union
 from solvers.ocp.problem import OcpProblem, PhaseProblem
 from solvers.ocp.terminal import TERMINAL_TOLERANCE, finer, grid_words
 from solvers.ocp.verify import LIMIT_TOLERANCE
@@ -220,20 +220,6 @@ class Refinement:
         trial.fine, trial.estimate = fine, estimate(trial, fine)
         trial.estimate.check_time_s = time.perf_counter() - t0
 
-    def accuracy_block(self, trial: Trial, requested: float | None, reached: bool | None) -> dict:
-        """``solver.accuracy`` of the answer ``trial``."""
-        obj = trial.objective_error_estimate
-        block = {"requested": requested,
-                 "state_error": trial.state_error if math.isfinite(trial.state_error) else None,
-                 "objective_error_estimate": obj if obj is not None and math.isfinite(obj) else None,
-                 "reached": reached, "estimated_by": ESTIMATE_METHOD,
-                 "reflight_state_error": trial.max_error if math.isfinite(trial.max_error) else None}
-        if trial.estimate is not None:
-            block.update(trial.estimate.words(), check_time_s=trial.estimate.check_time_s)
-        else:
-            block["check_failure"] = trial.check_failure
-        return block
-
     def to_accuracy(self):
         """The loop with the accuracy planner; returns the solution to report (module docstring)."""
         problem, accuracy, progress = self.problem, self.problem.accuracy, self.solve.on_progress
@@ -299,7 +285,7 @@ class Refinement:
             out.best.sol.status.message = "cancelled between mesh-refinement rounds"
         sol = self._account(out)
         best: Trial = out.best
-        sol.solver.update(refinement=out.rounds, accuracy=self.accuracy_block(best, accuracy, out.reached))
+        sol.solver.update(refinement=out.rounds, accuracy=accuracy_block(best, accuracy, out.reached))
         summary = (rounds_summary("mesh", accuracy, out.rounds) if problem.single
                    else rounds_summary("every phase's mesh", accuracy, out.rounds) + " over all phases")
         if out.reached:
@@ -346,7 +332,7 @@ class Refinement:
         sol = self._account(out)
         self.check(out.best, None if self.solve.on_progress is None
                    else (lambda f, m: self.solve.on_progress(1.0, "objective error check: " + m)))
-        sol.solver["accuracy"] = self.accuracy_block(out.best, None, None)
+        sol.solver["accuracy"] = accuracy_block(out.best, None, None)
         if out.best.estimate is not None:
             sol.notes.append(f"objective error estimated at {err_words(out.best.objective_error_estimate)} "
                              f"(relative), states at {err_words(out.best.state_error)} (scaled): "
