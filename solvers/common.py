@@ -22,6 +22,9 @@ class Outcome(str, Enum):
     """What became of a solve. Maps one-to-one onto the API's job status/error codes."""
 
     OPTIMAL = "optimal"              # converged to a (local) optimum that meets the constraints
+    # converged, feasible and verified, but a necessary condition of optimality checked on the costates fails
+    # (ocp: verification.optimality): the answer is served as a success, its outcome saying so
+    OPTIMALITY_NOT_VERIFIED = "optimality_not_verified"
     INFEASIBLE = "infeasible"        # the NLP solver proved or reported local infeasibility
     NOT_CONVERGED = "not_converged"  # iteration/time budget exhausted, or diverged
     CANCELLED = "cancelled"          # should_stop() answered True
@@ -47,7 +50,8 @@ class SolveStatus:
 
     @property
     def ok(self) -> bool:
-        return self.outcome is Outcome.OPTIMAL
+        """A converged answer that meets the constraints (optimal, or one whose optimality is not verified)."""
+        return self.outcome in (Outcome.OPTIMAL, Outcome.OPTIMALITY_NOT_VERIFIED)
 
 
 def noop_progress(fraction: float, message: str) -> None:

@@ -325,7 +325,7 @@ def outcome_from_status(status, result: dict | None) -> RunOutcome:
     """Turn a solver's :class:`solvers.common.SolveStatus` into a :class:`RunOutcome`."""
     from solvers.common import Outcome
 
-    if status.outcome is Outcome.OPTIMAL:
+    if status.outcome in (Outcome.OPTIMAL, Outcome.OPTIMALITY_NOT_VERIFIED):   # the latter: a feasible answer
         return RunOutcome("succeeded", result=result)
     if status.outcome is Outcome.CANCELLED:
         return RunOutcome("cancelled", result=result,

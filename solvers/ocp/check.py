@@ -17,8 +17,12 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from solvers.ocp.growth import INTERVALS, growth
+from solvers.ocp.costates import PhaseMultipliers, costates
+from solvers.ocp.hamiltonian import evaluate
+from solvers.ocp.hamiltonian import functions as h_functions
+from solvers.ocp.hamiltonian import nodal as hamiltonian
 from solvers.ocp.optimality import checks as optimality_checks
-from solvers.ocp.optimality import costates, hamiltonian
+from solvers.ocp.optimality import path_rates
 from solvers.ocp.scaling import Attempt, Numbers
 from solvers.ocp.terminal import TERMINAL_TOLERANCE, terminal_checks
 from solvers.ocp.verify import Verification, local_errors, verify
@@ -62,11 +66,10 @@ def transcription_words(grid) -> dict:
 
 
 def check_phase(block, num: Numbers, z: np.ndarray, *, t0: float, agreement: float, single: bool,
-                mu: np.ndarray | None = None) -> PhaseCheck:
+                mult: PhaseMultipliers | None = None) -> PhaseCheck:
     """Phase ``block`` (:class:`solvers.ocp.trajectory.Block`) of the answer whose phase columns are ``z``,
-    starting at ``t0``: re-flown, held to its limits and terminal conditions, reported; ``mu``: the
-    multipliers of its defect rows, for the costates and the optimality checks
-    (:mod:`solvers.ocp.optimality`)."""
+    starting at ``t0``: re-flown, held to its limits and terminal conditions, reported; ``mult``: its
+    multipliers, for the costates and the optimality checks (:mod:`solvers.ocp.optimality`)."""
     nlp, fns = block.nlp, block.nlp.fns
     prob = block.problem
     prob = replace(prob, phase=replace(prob.phase, time=replace(prob.phase.time, initial=t0)))
@@ -97,13 +100,15 @@ def check_phase(block, num: Numbers, z: np.ndarray, *, t0: float, agreement: flo
     if ph.expressions:
         E = np.asarray(fns.named.map(t_nodes.size)(t_nodes[None, :], att.X, U, att.theta, c, t0, att.tf))
         traj.update({n: E[i] for i, (n, _) in enumerate(ph.expressions)})
-    lam = None if mu is None else costates(nlp=nlp, num=num, att=att, mu=mu, t_nodes=t_nodes, c=c, t0=t0)
     extra = {}
-    if lam is not None:
-        H, size = hamiltonian(nlp=nlp, att=att, lam=lam, U=U, t_nodes=t_nodes, c=c, t0=t0)
+    if mult is not None:
+        lam, mapped = costates(nlp=nlp, num=num, att=att, mu=mult.defects, t_nodes=t_nodes, c=c, t0=t0,
+                               sign=nlp.sign, hx=_hx(nlp, num, mult, att, U, t_nodes, c, t0))
+        H, size = hamiltonian(fns=fns, sign=nlp.sign, att=att, lam=lam, U=U, t_nodes=t_nodes, c=c, t0=t0)
         verification["optimality"] = optimality_checks(problem=prob, nlp=nlp, att=att, lam=lam, U=U, t_nodes=t_nodes,
-                                                       c=c, t0=t0, H=H, size=size, single=single,
-                                                       tolerance=agreement,
+                                                       c=c, t0=t0, H=H, size=size, num=num,
+                                                       tolerance=max(agreement, AGREEMENT_TOLERANCE),
+                                                       mult=mult, mapped=mapped,
                                                        dense=(ver.t, ver.x, ver.u) if ver.ok else None)
         extra = {"costates": {s.name: lam[i] for i, s in enumerate(ph.states)}, "hamiltonian": H}
     report = {"name": block.name, "t0": t0, "tf": att.tf, **extra,
@@ -121,3 +126,14 @@ def check_phase(block, num: Numbers, z: np.ndarray, *, t0: float, agreement: flo
     return PhaseCheck(name=block.name, label="" if single else f"phase {block.name}: ", attempt=att,
                       verification=ver, terminal=terminal, terminal_held=held, agrees=agrees, worst=worst,
                       report=report, errors=errors)
+
+
+def _hx(nlp, num, mult, att, U, t_nodes, c, t0):
+    """``dH/dx`` at node ``j`` for costate ``lam``, the node's path multipliers included (LGL's end corrections)."""
+    hf = h_functions(nlp.fns, nlp.sign)
+    mu, cb = path_rates(phase=None, mult=mult, num=num, grid=nlp.grid, t_nodes=t_nodes)
+
+    def hx(j: int, lam: np.ndarray) -> np.ndarray:
+        return evaluate(hf.dH_dx, t=t_nodes[j:j + 1], X=att.X[:, j:j + 1], U=U[:, j:j + 1], att=att, c=c, t0=t0,
+                        lam=lam[:, None], mu=mu[:, j:j + 1], cb=cb[:, j:j + 1])[:, 0]
+    return hx

@@ -1,227 +1,240 @@
 """Evidence that a phase's answer is an optimum, not only feasible (``shared/specs/ocp.md``, "Optimality").
 
-Costates from the NLP's multipliers, for multiple shooting: the defect of interval ``k`` is
-``g_k = (F_k(x_k, u) - x_{k+1}) / x_scale`` and IPOPT's Lagrangian ``f + mu' g``, so the sensitivity
-of the minimised objective to the state at node ``k+1`` is ``lambda_{k+1} = mu_k / x_scale`` (the
-discrete adjoint of the RK4 map, Betts, *Practical Methods*, 2nd ed., sec. 4.11); at the first node
-the adjoint is carried back through interval 0, ``lambda_0 = dF_0/dx' lambda_1 + sign dq_0/dx``.
-The costates are those of the objective as minimised (``-J`` for a maximum).  The Hamiltonian at the
-nodes is ``H = sign L + lambda' f`` (path constraints' multipliers are not included yet).
+The costates come from the NLP's multipliers (:mod:`solvers.ocp.costates`, both transcriptions), the
+Hamiltonian from :mod:`solvers.ocp.hamiltonian` with the path constraints' multipliers per unit time
+(``mu_j = pi_j / W_j``: the node's multiplier over its quadrature weight, the trapezoid's for multiple
+shooting, the LGL weights times ``h / 2`` summed over the segments sharing the node).
 
-Checks (each ``{"value", "tolerance", "held"}``), those that apply: ``hamiltonian_constant`` (the
-dynamics and integrand do not name ``t``: the variation of H over the nodes), ``hamiltonian_final``
-(a free final time of a problem posed as one phase: ``H(tf) = -sign dPhi/dtf``), ``stationarity``
-(``dH/du = 0`` at the nodes where every control is strictly inside its bounds and every path
-constraint inside its own, and so are both neighbours), ``minimum_principle`` (module function
-:func:`minimum_principle`: the control used minimises H over its box at the dense re-flight's samples).
-Each is measured
-against the size of H's terms (the largest sum of their magnitudes over the nodes, as H itself may
-be 0) and held to the agreement tolerance of the answer
-(``accuracy`` or 1%): the transcription's own error bounds how well its multipliers estimate the
-costates.  Not yet: LGL costates (Benson/Garg/Rao mapping), transversality; a phase transcribed by LGL carries no ``optimality``.
+Checks (each ``{"value", "tolerance", "held"}``), those that apply:
+
+- ``hamiltonian_constant`` (nothing names ``t``: the dynamics, integrand and path constraints): the spread
+  of H over the nodes;
+- ``hamiltonian_final`` (the phase's final time is free): ``H(tf) = -d(sign Phi + nu' psi)/dtf``, the events'
+  multipliers (boundary constraints, links between phases, a bound on tf) included;
+- ``stationarity``: ``dH/du = 0`` where every control is strictly inside its box, the path constraints'
+  multipliers in H (so an arc on a mixed constraint counts too), in the form each control's unknown acts:
+  at the LGL nodes; for multiple shooting's linear controls ``dH/du`` averaged with the node's hat
+  function over its two intervals (Simpson); per interval for piecewise-constant ones (the trapezoid of its
+  two ends).  Nodal values alone would misjudge the ends and the junctions of arcs, where ``dH/du`` kinks
+  and a node's unknown balances the average, not its own value;
+- ``minimum_principle`` (:mod:`solvers.ocp.minimum_principle`): the control used minimises H over its
+  admissible set at the dense re-flight's samples;
+- ``transversality`` (a state whose value at an end is not fixed): the costate there against
+  ``+-d(sign Phi + nu' psi)/dx`` with the path rows and bounds of that node; for LGL the mapping's own end
+  value is compared (the endpoint correction's size), for multiple shooting it is the end node's KKT
+  condition and holds to IPOPT's tolerance.
+
+Each is measured against the size of H's terms (the largest sum of their magnitudes over the nodes, as H
+may be 0; transversality: a costate's error times the largest rate of its state) and held to the answer's
+tolerance, 1% (or the answer's ``accuracy`` where that is coarser: the costates converge at their own
+rate, a singular arc's more slowly than the states, so a tighter state accuracy does not tighten their
+estimate).  One allowance is derived from the mesh: the multipliers fix the sign of the switching
+function ``sigma = dH/du`` on each interval of a control on its bounds, not where it crosses zero, so
+where a control switches the costates are not unique.  A piecewise-constant control's zero can sit
+anywhere within half an interval of the switching node (between the two intervals' midpoints) and H may
+jump there by up to ``|du| |dsigma/dt| h / 2`` (H is evaluated on each interval with that interval's
+control at both its ends); a control at the nodes (LGL, linear) crosses between two nodes, anywhere in
+that gap ``dt``, and H departs by up to ``|du| |dsigma/dt| dt``.  The sum of those bounds over the mesh
+(``allowance``, reported, relative) is added to the tolerance of ``hamiltonian_constant`` and
+``hamiltonian_final``.  It vanishes where a control is interior (``sigma = 0`` there) or stays on a bound
+(``du = 0``): it counts the switches only.
 """
 from __future__ import annotations
 
 import casadi as ca
 import numpy as np
 
+from solvers.ocp.costates import right_costates
+from solvers.ocp.hamiltonian import evaluate
+from solvers.ocp.hamiltonian import functions as h_functions
+from solvers.ocp.minimum_principle import minimum_principle
+from solvers.transcription.lgl import lgl_weights
+
 INSIDE = 1e-3        # a control within this fraction of its bounds' span from a bound is on it
-GRID = 41            # candidate values along each control's range (minimum principle)
-ZOOM = 21            # candidates of the refinement around the best one, within one grid step
-CORNERS = 6          # at most this many controls have all their bounds' corners tried
 
 
-def costates(*, nlp, num, att, mu: np.ndarray, t_nodes: np.ndarray, c: np.ndarray, t0: float) -> np.ndarray | None:
-    """``(nx, N)`` costates at the nodes of a multiple-shooting phase (module docstring), else None."""
-    from solvers.ocp.phase import ms_interval
-
-    g, fns = nlp.grid, nlp.fns
-    if g.method != "multiple_shooting":
-        return None
-    nx, m = fns.nx, g.intervals
-    lam = np.zeros((nx, g.n_nodes))
-    lam[:, 1:] = (np.asarray(mu, float).reshape((m, nx)).T) / num.x_scale[:, None]
-    F = ms_interval(fns, g)
-    xa, ua, ub = ca.SX.sym("xa", nx), ca.SX.sym("ua", fns.nu), ca.SX.sym("ub", fns.nu)
-    ta, h = ca.SX.sym("ta"), ca.SX.sym("h")
-    th, cc, s0, sf = ca.SX.sym("th", fns.ntheta), ca.SX.sym("c", fns.nc), ca.SX.sym("t0"), ca.SX.sym("tf")
-    xe, q = F(xa, ua, ub, ta, h, th, cc, s0, sf)
-    lam1 = ca.SX.sym("l1", nx)
-    back = ca.gradient(ca.dot(lam1, xe) + (nlp.sign * q[0] if fns.nq else 0), xa)
-    fn = ca.Function("ocp_adjoint_0", [xa, ua, ub, ta, h, th, cc, s0, sf, lam1], [back])
-    U = att.U
-    u1 = U[:, 1] if U.shape[1] > 1 and g.control == "linear" else U[:, 0]
-    lam[:, 0] = np.asarray(fn(att.X[:, 0], U[:, 0], u1, t_nodes[0], t_nodes[1] - t_nodes[0], att.theta, c, t0,
-                              att.tf, lam[:, 1])).ravel()
-    return lam
+def node_weights(grid, t_nodes: np.ndarray) -> np.ndarray:
+    """Each node's quadrature weight in time: what a path row's multiplier is spread over."""
+    W = np.zeros(t_nodes.size)
+    if grid.method == "multiple_shooting":
+        h = np.diff(t_nodes)
+        W[:-1] += h / 2
+        W[1:] += h / 2
+        return W
+    off = grid.offsets()
+    for s, n in enumerate(grid.nodes_per_interval()):
+        h = t_nodes[off[s + 1]] - t_nodes[off[s]]
+        W[off[s]:off[s] + n] += 0.5 * h * lgl_weights(int(n))
+    return W
 
 
-def hamiltonian(*, nlp, att, lam: np.ndarray, U: np.ndarray, t_nodes: np.ndarray, c,
-                t0: float) -> tuple[np.ndarray, float]:
-    """H at the nodes (module docstring), and the size of its terms (the largest sum of their magnitudes
-    over the nodes: what a check's error is measured against, as H itself may be near 0)."""
-    fns = nlp.fns
-    F = np.asarray(fns.rhs.map(t_nodes.size)(t_nodes[None, :], att.X, U, att.theta, c, t0, att.tf))
-    terms = lam * F[:fns.nx]
-    H, size = np.sum(terms, axis=0), np.sum(np.abs(terms), axis=0)
-    if fns.nq:
-        H, size = H + nlp.sign * F[fns.nx], size + np.abs(F[fns.nx])
-    return H, float(np.max(size, initial=0.0))
+def path_rates(*, phase, mult, num, grid, t_nodes) -> tuple[np.ndarray, np.ndarray]:
+    """The path constraints' multipliers per unit time at the nodes, and the bound each one's sign names
+    (``phase`` None: zeros, for derivatives that do not read them)."""
+    pi = mult.path / num.path_scale[:, None] if mult.path.size else mult.path
+    mu = pi / node_weights(grid, t_nodes)[None, :] if pi.size else pi
+    cb = np.zeros_like(mu)
+    for j, k in enumerate(phase.path if phase is not None else ()):
+        cb[j] = np.where(pi[j] > 0, k.upper if k.upper is not None else 0.0,
+                         k.lower if k.lower is not None else 0.0)
+    return mu, cb
 
 
-def path_inside(*, fns, phase, t: np.ndarray, X: np.ndarray, U: np.ndarray, att, c, t0: float) -> np.ndarray:
-    """Where every path constraint is strictly inside its bounds (by INSIDE of their size) at the samples ``t``:
-    an active path constraint's multiplier is not in H, so the checks judge H only there."""
-    keep = np.ones(t.size, bool)
-    if not fns.npath:
-        return keep
-    P = np.asarray(fns.path.map(t.size)(t[None, :], X, U, att.theta, c, t0, att.tf))
-    for j, k in enumerate(phase.path):
-        span = max(abs(k.lower or 0.0), abs(k.upper or 0.0), 1e-300)
-        if k.lower is not None:
-            keep &= P[j] > k.lower + INSIDE * span
-        if k.upper is not None:
-            keep &= P[j] < k.upper - INSIDE * span
+def _inside(values: np.ndarray, lower, upper, span: float) -> np.ndarray:
+    keep = np.ones(values.shape, bool)
+    if lower is not None:
+        keep &= values > lower + INSIDE * span
+    if upper is not None:
+        keep &= values < upper - INSIDE * span
     return keep
 
 
-def minimum_principle(*, problem, fns, nlp_grid, sign: float, att, lam: np.ndarray, t_nodes: np.ndarray, c, t0: float,
-                      dense: tuple[np.ndarray, np.ndarray, np.ndarray]) -> tuple[float, float, int] | None:
-    """The worst gap ``H(u used) - min H`` over the box of the controls, its time and the samples checked.
-
-    At the samples ``dense = (t, x, u)`` of the re-flight (the nodes and the points between them), with
-    the costates interpolated linearly between the nodes.  A sample where a path constraint is on its
-    bound is left out (its multiplier restricts the admissible set).  The candidates: the bounds' corners,
-    a grid along each control's range with the others as used, then a finer grid around the best of
-    those within one step, control by control.  The minimum over candidates is an upper bound of the true
-    one, so the gap is a lower bound: a grid never flags an answer that does minimise H.  A control
-    without a bound is searched over the range it uses widened by that range (at least 1) each way.
-    Piecewise-constant controls hold one value over an interval, so there H is averaged over each
-    interval's samples before it is compared (the transcription's own minimum principle): pointwise, the
-    nodal costates' error near a switch on a node (the multipliers are not unique there) would move the
-    switching function's zero off the node and flag the exact bang-bang answer.
-    """
-    ph = problem.phase
-    td, xd, ud = (np.asarray(a, float) for a in dense)
-    nx, nu = fns.nx, fns.nu
-    keep = path_inside(fns=fns, phase=ph, t=td, X=xd, U=ud, att=att, c=c, t0=t0)
-    if not keep.any():
-        return None
-    td, xd, ud = td[keep], xd[:, keep], ud[:, keep]
-    S = td.size
-    ld = np.vstack([np.interp(td, t_nodes, lam[i]) for i in range(nx)])
-    lo, hi = np.empty(nu), np.empty(nu)
-    for i, k in enumerate(ph.controls):
-        span = max(float(np.ptp(ud[i])), 1.0)
-        lo[i] = k.lower if k.lower is not None else float(np.min(ud[i])) - span
-        hi[i] = k.upper if k.upper is not None else float(np.max(ud[i])) + span
-    t, x, u = ca.SX.sym("t"), ca.SX.sym("x", nx), ca.SX.sym("u", nu)
-    th, cc, s0, sf = ca.SX.sym("th", fns.ntheta), ca.SX.sym("c", fns.nc), ca.SX.sym("t0"), ca.SX.sym("tf")
-    ls = ca.SX.sym("lam", nx)
-    f = fns.rhs(t, x, u, th, cc, s0, sf)
-    Hf = ca.Function("ocp_H", [t, x, u, th, cc, s0, sf, ls],
-                     [ca.dot(ls, f[:nx]) + (sign * f[nx] if fns.nq else 0)])
-
-    grid = nlp_grid
-    if grid.method == "multiple_shooting" and grid.control == "constant":
-        idx = np.clip(np.searchsorted(t_nodes, td, side="right") - 1, 0, grid.intervals - 1)
-        member = np.zeros((S, grid.intervals))
-        member[np.arange(S), idx] = 1.0
-        member /= np.maximum(member.sum(axis=0), 1.0)
-
-        def pool(A: np.ndarray) -> np.ndarray:           # each sample gets its interval's average
-            return (A @ member)[:, idx]
-    else:
-        def pool(A: np.ndarray) -> np.ndarray:
-            return A
-
-    def h_of(cand: np.ndarray) -> np.ndarray:            # cand (nu, n, S) -> H (n, S)
-        n = cand.shape[1]
-        out = Hf.map(n * S)(np.tile(td, n)[None, :], np.tile(xd, n), cand.reshape(nu, n * S), att.theta, c,
-                            t0, att.tf, np.tile(ld, n))
-        return pool(np.asarray(out).reshape(n, S))
-
-    sets = []
-    if nu <= CORNERS:
-        grids = np.meshgrid(*[[lo[i], hi[i]] for i in range(nu)], indexing="ij")
-        corners = np.vstack([g.ravel() for g in grids])                     # (nu, 2^nu)
-        sets.append(np.repeat(corners[:, :, None], S, axis=2))
-    for i in range(nu):
-        line = np.repeat(ud[:, None, :], GRID, axis=1)
-        line[i] = np.linspace(lo[i], hi[i], GRID)[:, None]
-        sets.append(line)
-    cand = np.concatenate(sets, axis=1)
-    Hc = h_of(cand)
-    best = cand[:, np.argmin(Hc, axis=0), np.arange(S)]                    # (nu, S)
-    Hmin = np.min(Hc, axis=0)
-    for i in range(nu):         # refine within one grid step of the best, control by control
-        step = (hi[i] - lo[i]) / (GRID - 1)
-        line = np.repeat(best[:, None, :], ZOOM, axis=1)
-        line[i] = np.clip(best[i][None, :] + np.linspace(-step, step, ZOOM)[:, None], lo[i], hi[i])
-        Hz = h_of(line)
-        better = np.min(Hz, axis=0) < Hmin
-        best[:, better] = line[:, np.argmin(Hz, axis=0), np.arange(S)][:, better]
-        Hmin = np.minimum(Hmin, np.min(Hz, axis=0))
-    gap = np.maximum(h_of(ud[:, None, :])[0] - Hmin, 0.0)
-    worst = int(np.argmax(gap))
-    return float(gap[worst]), float(td[worst]), S
+def _entry(value: float, tolerance: float, **more) -> dict:
+    return {"value": value, "tolerance": tolerance, "held": bool(value <= tolerance), **more}
 
 
-def checks(*, problem, nlp, att, lam, U, t_nodes, c, t0: float, H: np.ndarray, size: float, single: bool,
-           tolerance: float, dense: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> dict:
-    """``verification.optimality`` of the phase (module docstring); ``size``: the size of H's terms;
+def checks(*, problem, nlp, att, lam, U, t_nodes, c, t0: float, H: np.ndarray, size: float, tolerance: float,
+           num, mult, mapped: dict, dense: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> dict:
+    """``verification.optimality`` of the phase (module docstring); ``size``: the size of H's terms; ``mult``:
+    its :class:`solvers.ocp.costates.PhaseMultipliers`; ``mapped``: LGL's mapped end costates;
     ``dense``: the re-flight's ``(t, x, u)`` samples, for the minimum principle (none: not checked)."""
-    fns, ph = nlp.fns, problem.phase
+    fns, ph, grid = nlp.fns, problem.phase, nlp.grid
     scale = size if size > 0.0 else 1.0
+    hf = h_functions(fns, nlp.sign)
+    mu, cb = path_rates(phase=ph, mult=mult, num=num, grid=grid, t_nodes=t_nodes)
     out: dict[str, dict] = {}
-    t, x, u = ca.SX.sym("t"), ca.SX.sym("x", fns.nx), ca.SX.sym("u", fns.nu)
-    th, cc, s0, sf = ca.SX.sym("th", fns.ntheta), ca.SX.sym("c", fns.nc), ca.SX.sym("t0"), ca.SX.sym("tf")
-    f = fns.rhs(t, x, u, th, cc, s0, sf)
-    if not ca.depends_on(f, t) and not ca.depends_on(f, s0) and not ca.depends_on(f, sf):
-        value = float(np.max(H) - np.min(H)) / scale
-        out["hamiltonian_constant"] = {"value": value, "tolerance": tolerance, "held": bool(value <= tolerance)}
-    if single and ph.time.final is None:
-        x0, xf = ca.SX.sym("x0", fns.nx), ca.SX.sym("xf", fns.nx)
-        u0, uf = ca.SX.sym("u0", fns.nu), ca.SX.sym("uf", fns.nu)
-        mayer = fns.events(s0, sf, x0, xf, u0, uf, th, cc)[1]
-        dphi = ca.Function("ocp_dphi_dtf", [s0, sf, x0, xf, u0, uf, th, cc], [ca.jacobian(mayer, sf)])
-        want = -nlp.sign * float(dphi(t0, att.tf, att.X[:, 0], att.X[:, -1], U[:, 0], U[:, -1], att.theta, c))
-        value = abs(float(H[-1]) - want) / scale
-        out["hamiltonian_final"] = {"value": value, "expected": want, "tolerance": tolerance,
-                                    "held": bool(value <= tolerance)}
+    piecewise = grid.method == "multiple_shooting" and grid.control == "constant"
+    Hvals, H_end, allowance = H, float(H[-1]), 0.0
+    common = {"att": att, "c": c, "t0": t0}
+    plus = right_costates(nlp=nlp, num=num, mult=mult, lam=lam)
+    if piecewise and fns.nu:
+        Uc, X = att.U, att.X
+        ta, tb = t_nodes[:-1], t_nodes[1:]
+        Ha = evaluate(hf.H, t=ta, X=X[:, :-1], U=Uc, lam=plus[:, :-1], **common)[0]
+        Hb = evaluate(hf.H, t=tb, X=X[:, 1:], U=Uc, lam=lam[:, 1:], **common)[0]
+        Sa = evaluate(hf.dH_du, t=ta, X=X[:, :-1], U=Uc, lam=plus[:, :-1], **common)
+        Sb = evaluate(hf.dH_du, t=tb, X=X[:, 1:], U=Uc, lam=lam[:, 1:], **common)
+        Hvals, H_end = np.concatenate([Ha, Hb]), float(Hb[-1])
+        if Uc.shape[1] > 1:
+            h = np.diff(t_nodes)
+            sdot = (Sb[:, 1:] - Sa[:, :-1]) / (t_nodes[2:] - t_nodes[:-2])[None, :]
+            jumps = np.abs(np.diff(Uc, axis=1)) * np.abs(sdot) * np.maximum(h[:-1], h[1:])[None, :] / 2
+            allowance = float(np.sum(jumps))
+    elif fns.nu and t_nodes.size > 1:
+        # controls at the nodes: where one moves across the gap between two nodes, the switching function's
+        # zero can sit anywhere in that gap and H departs from its value by up to |du| |dsigma/dt| dt there
+        S = evaluate(hf.dH_du, t=t_nodes, X=att.X, U=U, lam=lam, **common)
+        dt = np.diff(t_nodes)
+        ok = dt > 0.0                                     # a node shared by two LGL segments appears once
+        sdot = np.diff(S, axis=1)[:, ok] / dt[ok]
+        allowance = float(np.sum(np.abs(np.diff(U, axis=1))[:, ok] * np.abs(sdot) * dt[ok]))
+    t, s0, sf = ca.SX.sym("t"), ca.SX.sym("t0"), ca.SX.sym("tf")
+    x, u = ca.SX.sym("x", fns.nx), ca.SX.sym("u", fns.nu)
+    th, cc = ca.SX.sym("th", fns.ntheta), ca.SX.sym("c", fns.nc)
+    named = ca.vertcat(fns.rhs(t, x, u, th, cc, s0, sf), fns.path(t, x, u, th, cc, s0, sf))
+    slack = allowance / scale
+    if not any(ca.depends_on(named, v) for v in (t, s0, sf)):
+        out["hamiltonian_constant"] = _entry(float(np.ptp(Hvals)) / scale, tolerance + slack, allowance=slack)
+    if mult.upper[0] > mult.lower[0]:              # the final time is free
+        want = -float(mult.ends[0] + mult.bounds[0]) / num.t_scale
+        out["hamiltonian_final"] = _entry(abs(H_end - want) / scale, tolerance + slack, expected=want,
+                                          allowance=slack)
     if fns.nu:
-        lam_s = ca.SX.sym("lam", fns.nx)
-        Hs = ca.dot(lam_s, f[:fns.nx]) + (nlp.sign * f[fns.nx] if fns.nq else 0)
-        dH = ca.Function("ocp_dH_du", [t, x, u, th, cc, s0, sf, lam_s], [ca.gradient(Hs, u)])
-        G = np.asarray(dH.map(t_nodes.size)(t_nodes[None, :], att.X, U, att.theta, c, t0, att.tf, lam))
-        inside = np.ones(t_nodes.size, bool)
-        for i, k in enumerate(ph.controls):
-            span = (k.upper - k.lower) if k.lower is not None and k.upper is not None else max(1.0, np.ptp(U[i]))
-            if k.lower is not None:
-                inside &= U[i] > k.lower + INSIDE * span
-            if k.upper is not None:
-                inside &= U[i] < k.upper - INSIDE * span
-        # an active path constraint's multiplier is not in H: its nodes are left out
-        inside &= path_inside(fns=fns, phase=ph, t=t_nodes, X=att.X, U=U, att=att, c=c, t0=t0)
-        # a node next to one on a bound shares an interval with it (its controls interpolate into the arc)
-        own = inside.copy()
-        inside[1:] &= own[:-1]
-        inside[:-1] &= own[1:]
-        uscale = np.array([max(abs(k.lower or 0.0), abs(k.upper or 0.0), 1e-300) if k.scale is None else k.scale
-                           for k in ph.controls])
-        if inside.any():
-            value = float(np.max(np.abs(G[:, inside]) * uscale[:, None])) / scale
-            out["stationarity"] = {"value": value, "tolerance": tolerance, "held": bool(value <= tolerance),
-                                   "nodes": int(inside.sum())}
-        mp = None if dense is None else minimum_principle(problem=problem, fns=fns, nlp_grid=nlp.grid,
-                                                          sign=nlp.sign, att=att, lam=lam, t_nodes=t_nodes,
-                                                          c=c, t0=t0, dense=dense)
-        if mp is not None:
-            value = mp[0] / scale
-            out["minimum_principle"] = {"value": value, "tolerance": tolerance, "held": bool(value <= tolerance),
-                                        "t": mp[1], "samples": mp[2]}
+        st = _stationarity(problem=problem, nlp=nlp, hf=hf, att=att, lam=lam, plus=plus, U=U, t_nodes=t_nodes, c=c, t0=t0,
+                           mu=mu, cb=cb, num=num, mult=mult)
+        if st is not None:
+            out["stationarity"] = _entry(st[0] / scale, tolerance, **st[1])
+        if dense is not None:
+            mp = minimum_principle(problem=problem, fns=fns, nlp_grid=grid, sign=nlp.sign, att=att, lam=lam,
+                                   t_nodes=t_nodes, c=c, t0=t0, dense=dense, path_scale=num.path_scale)
+            if mp is not None:
+                out["minimum_principle"] = _entry(mp[0] / scale, tolerance, t=mp[1], samples=mp[2])
+    tv = _transversality(names=ph.state_names, nlp=nlp, att=att, lam=lam, U=U, t_nodes=t_nodes, c=c, t0=t0, num=num, mult=mult,
+                         mapped=mapped)
+    if tv is not None:
+        out["transversality"] = _entry(tv[0] / scale, tolerance, **tv[1])
     held = all(v["held"] for v in out.values())
     failed = [k for k, v in out.items() if not v["held"]]
     message = (f"checked {', '.join(out) or 'nothing that applies'}; "
                + ("held" if held else f"NOT held: {', '.join(failed)}"))
     return {"held": held, "checks": out, "message": message}
+
+
+def _stationarity(*, problem, nlp, hf, att, lam, plus, U, t_nodes, c, t0, mu, cb, num, mult):
+    """The worst ``|dH/du|`` times the control's scale where the controls are strictly inside their box, and
+    where it was measured (``nodes`` or ``intervals``), or None where nowhere."""
+    ph, grid, fns = problem.phase, nlp.grid, nlp.fns
+    common = {"att": att, "c": c, "t0": t0}
+    # a control's size: its scale, else its bounds' magnitude, else (unbounded) the largest value it takes
+    uscale = np.array([k.scale if k.scale is not None
+                       else max(abs(k.lower or 0.0), abs(k.upper or 0.0)) or float(np.max(np.abs(U[i]))) or 1.0
+                       for i, k in enumerate(ph.controls)])
+    spans = [(k.upper - k.lower) if k.lower is not None and k.upper is not None else max(1.0, float(np.ptp(U[i])))
+             for i, k in enumerate(ph.controls)]
+    if grid.method == "multiple_shooting" and grid.control == "constant":
+        Uc, X, m = att.U, att.X, grid.intervals
+        inside = np.ones(m, bool)
+        for i, k in enumerate(ph.controls):
+            inside &= _inside(Uc[i], k.lower, k.upper, spans[i])
+        if not inside.any():
+            return None
+        h = np.diff(t_nodes)
+        Sa = evaluate(hf.dH_du, t=t_nodes[:-1], X=X[:, :-1], U=Uc, lam=plus[:, :-1], **common)
+        Sb = evaluate(hf.dH_du, t=t_nodes[1:], X=X[:, 1:], U=Uc, lam=lam[:, 1:], **common)
+        G = 0.5 * (Sa + Sb)
+        if fns.npath:       # the path rows of the interval's nodes that hold its control (the last: two)
+            pi = mult.path / num.path_scale[:, None]
+            G += evaluate(hf.dpath_du, t=t_nodes[:-1], X=X[:, :-1], U=Uc, lam=lam[:, :-1], mu=pi[:, :-1],
+                          **common) / h[None, :]
+            G[:, -1] += evaluate(hf.dpath_du, t=t_nodes[-1:], X=X[:, -1:], U=Uc[:, -1:], lam=lam[:, -1:],
+                                 mu=pi[:, -1:], **common)[:, 0] / h[-1]
+        return float(np.max(np.abs(G[:, inside]) * uscale[:, None])), {"intervals": int(inside.sum())}
+    inside = np.ones(t_nodes.size, bool)
+    for i, k in enumerate(ph.controls):
+        inside &= _inside(U[i], k.lower, k.upper, spans[i])
+    if not inside.any():
+        return None
+    G = evaluate(hf.dH_du, t=t_nodes, X=att.X, U=U, lam=lam, mu=mu, cb=cb, **common)
+    if grid.method == "multiple_shooting":
+        # a linear control's node value acts on its hat function: the condition is dH/du averaged with the
+        # hat's weight over the node's two intervals (Simpson on each, exact for the linear parts), the path
+        # row's multiplier at the node as it is; at the ends and where the arc changes (a bound, a mixed
+        # constraint) that average is what the transcription balances, not the node's own value
+        X = att.X
+        tm = 0.5 * (t_nodes[:-1] + t_nodes[1:])
+        mid = {"X": 0.5 * (X[:, :-1] + X[:, 1:]), "U": 0.5 * (U[:, :-1] + U[:, 1:]),
+               "lam": 0.5 * (plus[:, :-1] + lam[:, 1:])}
+        Sm = evaluate(hf.dH_du, t=tm, **mid, **common)
+        Sn = evaluate(hf.dH_du, t=t_nodes, X=X, U=U, lam=lam, **common)          # the left intervals' ends
+        Sp = evaluate(hf.dH_du, t=t_nodes, X=X, U=U, lam=plus, **common)         # the right intervals' starts
+        h = np.diff(t_nodes)
+        acc = np.zeros_like(Sn)
+        acc[:, 1:] += h * (2 * Sm + Sn[:, 1:]) / 6
+        acc[:, :-1] += h * (2 * Sm + Sp[:, :-1]) / 6
+        G = acc / node_weights(grid, t_nodes)[None, :] + (G - Sn)
+    return float(np.max(np.abs(G[:, inside]) * uscale[:, None])), {"nodes": int(inside.sum())}
+
+
+def _transversality(*, names, nlp, att, lam, U, t_nodes, c, t0, num, mult, mapped):
+    """The worst gap between a free end's costate and what the ends' multipliers say it is, times the
+    largest rate of that state over the nodes, and where; None when every end state is fixed."""
+    fns, g = nlp.fns, nlp.grid
+    nx = fns.nx
+    F = np.asarray(fns.rhs.map(t_nodes.size)(t_nodes[None, :], att.X, U, att.theta, c, t0, att.tf))[:nx]
+    rate = np.max(np.abs(F), axis=1)
+    worst, where = -1.0, None
+    for end, node, sign in (("initial", 0, -1.0), ("final", g.n_nodes - 1, 1.0)):
+        cols = 1 + fns.ntheta + nx * node + np.arange(nx)
+        free = mult.upper[cols] > mult.lower[cols]
+        if not free.any():
+            continue
+        want = sign * (mult.ends[cols] + mult.path_ends[cols] + mult.bounds[cols]) / num.x_scale
+        have = mapped.get(end, lam[:, node])
+        gap = np.abs(have - want) * rate
+        gap[~free] = 0.0
+        i = int(np.argmax(gap))
+        if gap[i] > worst:
+            worst, where = float(gap[i]), {"end": end, "state": names[i], "costate": float(have[i]), "expected": float(want[i])}
+    if where is None:
+        return None
+    return worst, where

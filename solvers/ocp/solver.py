@@ -11,7 +11,8 @@ rounds (:meth:`OcpSolve.hold_limits`, :mod:`solvers.ocp.limits`); around that, t
 (:mod:`solvers.ocp.refine`): to ``accuracy`` when asked, else only on a missed final value.
 Failures are values: the solution's ``status.outcome`` says ``infeasible``, ``not_converged``,
 ``limit_not_held``, ``terminal_not_held``, ``accuracy_not_reached`` or ``cancelled`` with the
-solver's words kept.
+solver's words kept; an optimal answer whose necessary conditions of optimality fail
+(:mod:`solvers.ocp.optimality`) is ``optimality_not_verified``, still a usable answer.
 """
 from __future__ import annotations
 
@@ -21,6 +22,7 @@ import numpy as np
 
 from solvers.common import Outcome, ProgressFn, StopFn
 from solvers.ocp.check import AGREEMENT_TOLERANCE, check_phase
+from solvers.ocp.costates import multipliers_of
 from solvers.ocp.flown import flown_guess, rk4_stiffness
 from solvers.ocp.guess import guess_of, stored_phases
 from solvers.ocp.limits import MAX_ROUNDS, Margins, worst_excess
@@ -78,8 +80,6 @@ class Placed:
         self.lbg, self.ubg = np.concatenate(lbg + [elo]), np.concatenate(ubg + [ehi])
         self.z0 = np.clip(self.z0, self.lbz, self.ubz)
         offsets = np.cumsum([0] + [len(n.lbg) for n in self.nums])
-        # each phase's defect rows in g (its first rows, multiple shooting: nx per interval), for the costates
-        self.defect_rows = [slice(o, o + b.nlp.fns.nx * b.nlp.grid.intervals) for b, o in zip(nlp.blocks, offsets)]
         # each phase's path rows in g, for the limit rounds
         self.path_rows = [(None if n.path_slices is None else slice(o + n.path_slices.start, o + n.path_slices.stop),
                            len(b.problem.path), b.nlp.grid) for n, b, o in zip(self.nums, nlp.blocks, offsets)]
@@ -98,8 +98,11 @@ class OcpSolve:
         """Refined to ``accuracy`` when the problem asks, else only on a final value missed."""
         refinement = Refinement(self)
         if self.problem.accuracy is not None:
-            return refinement.to_accuracy()
-        return refinement.terminal(TERMINAL_ROUNDS)
+            sol = refinement.to_accuracy()
+        else:
+            sol = refinement.terminal(TERMINAL_ROUNDS)
+        _judge_optimality(sol)
+        return sol
 
     # -- one grid ---------------------------------------------------------------------------------
     def on_grid(self, problem: OcpProblem, initial_guess: dict | None, on_progress: ProgressFn | None) -> OcpSolution:
@@ -168,10 +171,11 @@ class OcpSolve:
         """Every phase of the answer ``res`` checked on its own (:func:`solvers.ocp.check.check_phase`)."""
         agreement = problem.accuracy or AGREEMENT_TOLERANCE     # with accuracy, the states must agree to it
         out = []
-        for b, num, rows in zip(nlp.blocks, placed.nums, placed.defect_rows):
+        mults = multipliers_of(nlp, res, placed.p, placed.lbz, placed.ubz)
+        for b, num, mult in zip(nlp.blocks, placed.nums, mults):
             t0 = b.problem.phase.time.initial if b.t0_col is None else float(res.x[b.t0_col] * num.t_scale)
             out.append(check_phase(b, num, res.x[b.colmap], t0=t0, agreement=agreement, single=problem.single,
-                                   mu=res.lam_g[rows]))
+                                   mult=mult))
         return out
 
     def hold_limits(self, problem, nlp, warm, placed: Placed, res, checks):
@@ -222,6 +226,21 @@ def _judge(status, checks, rounds: list[dict], problem: OcpProblem) -> None:
                   for k, v in c.terminal.items() if not v["held"]}
         grids = ", ".join(f"{c.label}{grid_words(ph.problem)}" for c, ph in zip(checks, problem.phases))
         status.message = f"converged on {grids}, but the re-flight misses terminal conditions: {missed}"
+
+
+def _judge_optimality(sol: OcpSolution) -> None:
+    """An optimal answer whose necessary conditions of optimality fail is served, its outcome saying so."""
+    if sol.status.outcome is not Outcome.OPTIMAL:
+        return
+    failed = []
+    for p in sol.phases:
+        opt = p["verification"].get("optimality") or {}
+        if opt.get("held") is False:
+            label = "" if sol.single else f"phase {p['name']}: "
+            failed.append(label + ", ".join(k for k, v in opt["checks"].items() if not v["held"]))
+    if failed:
+        sol.status.outcome = Outcome.OPTIMALITY_NOT_VERIFIED
+        sol.status.message += "; optimality not verified: " + "; ".join(failed) + " (verification.optimality)"
 
 
 def solve(problem: OcpProblem, *, initial_guess: dict | None = None, on_progress: ProgressFn | None = None,

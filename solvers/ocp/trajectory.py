@@ -88,6 +88,10 @@ class TrajectoryNLP:
         self.layout = self.solver.layout
 
     # -- the elements ------------------------------------------------------------------------------
+    def elements(self) -> list[Element]:
+        """The NLP's elements in the order of its constraint rows (one phase: the phase's own)."""
+        return self.blocks[0].nlp.elements() if self.mp.single else self._elements()
+
     def _elements(self) -> list[Element]:
         out = []
         for i, b in enumerate(self.blocks):

@@ -158,6 +158,8 @@ def check(name: str):
     assert sol.status.solver_status == "Solve_Succeeded"
     assert abs(sol.objective - preset["optimum"]) <= preset["tolerance"], (sol.objective, preset["optimum"])
     assert sol.verification["ok"] and sol.verification["limits_held"] and sol.verification["terminal_held"]
+    assert all(p["verification"]["optimality"]["held"] for p in sol.phases), \
+        [p["verification"]["optimality"]["message"] for p in sol.phases]
     for a, b in zip(sol.phases, sol.phases[1:]):      # time and shared states continuous unless linked
         assert b["t0"] == pytest.approx(a["tf"], rel=1e-9)    # an equality of IPOPT's NLP (scaled 1e-9)
         assert a["trajectory"]["t"][-1] == pytest.approx(b["trajectory"]["t"][0], abs=1e-12)

@@ -32,6 +32,8 @@ def check_preset(name: str) -> OcpSolution:
     assert ver["ok"] and ver["limits_held"] and ver["agrees"]
     assert ver["max_state_difference_scaled_overall"] <= REFLIGHT[name], ver["max_state_difference_scaled"]
     assert set(sol.trajectory) >= {"t", *sol.initial, *(c["name"] for c in preset["params"]["controls"])}
+    assert all(p["verification"]["optimality"]["held"] for p in sol.phases), \
+        [p["verification"]["optimality"]["message"] for p in sol.phases]
     return sol
 
 
@@ -217,7 +219,9 @@ def test_lgl_control_leaving_its_bounds_between_nodes_is_reported():
     params = copy.deepcopy(di.PARAMS)
     params["transcription"] = {"method": "lgl", "intervals": 10, "nodes": 4}
     sol = run(params)
-    assert sol.status.outcome is Outcome.OPTIMAL, sol.status.message
+    # converged and feasible; whether the overshooting cubic still minimises H between the nodes is the
+    # minimum principle's verdict (within 1% of H's terms here), not this test's
+    assert sol.status.ok and sol.status.solver_status == "Solve_Succeeded", sol.status.message
     assert sol.objective == pytest.approx(2.0, abs=1e-4)
     ver = sol.verification
     u = ver["controls"]["u"]

@@ -92,7 +92,9 @@ class OcpResultSolver(ResultModel):
     segment_nodes: list[int] | None = Field(None, description="lgl on a refined mesh: nodes of each interval")
     status: str = Field(description="The NLP solver's own status word, e.g. IPOPT's Solve_Succeeded")
     outcome: str | None = Field(None, description="What became of the solve: optimal, infeasible, "
-                                "not_converged, limit_not_held, terminal_not_held, accuracy_not_reached, cancelled, failed")
+                                "not_converged, limit_not_held, terminal_not_held, accuracy_not_reached, cancelled, failed; "
+                                "optimality_not_verified: a feasible answer served as a success whose "
+                                "verification.optimality names a necessary condition that failed")
     message: str | None = Field(None, description="The solver's message")
     iterations: int = Field(description="NLP iterations, all solves")
     build_time_s: Num = Field(description="Time to build the NLP (s); ~0 when the structure was cached")
@@ -157,13 +159,21 @@ class OcpResultOptimalityCheck(ResultModel):
     tolerance: Num = Field(None, description="The largest residual counted as held (the answer's agreement "
                            "tolerance: its accuracy, or 1%)")
     held: bool | None = Field(None, description="value <= tolerance")
-    expected: Num = Field(None, description="hamiltonian_final: the value H(tf) must take")
-    nodes: int | None = Field(None, description="stationarity: the nodes checked (every control and path "
-                              "constraint strictly inside its bounds)")
+    expected: Num = Field(None, description="hamiltonian_final: the value H(tf) must take; transversality: the "
+                          "costate the ends' multipliers give")
+    allowance: Num = Field(None, description="piecewise-constant controls: the part of the tolerance the mesh "
+                           "allows where a control jumps (the costates are not unique there), relative")
+    intervals: int | None = Field(None, description="stationarity of piecewise-constant controls: the intervals "
+                                  "checked (their integral of dH/du)")
+    end: str | None = Field(None, description="transversality: initial or final, where the worst gap is")
+    state: str | None = Field(None, description="transversality: the state whose costate it is")
+    costate: Num = Field(None, description="transversality: the costate estimated there")
+    nodes: int | None = Field(None, description="stationarity: the nodes checked (every control strictly inside "
+                              "its bounds; the path constraints' multipliers are in H)")
     t: Num = Field(None, description="minimum_principle: the time of the worst gap H(u used) - min H over the "
                    "controls' bounds")
     samples: int | None = Field(None, description="minimum_principle: the re-flight's samples checked (the "
-                                "nodes and between them; off the arcs where a path constraint is on its bound)")
+                                "nodes and between them; the admissible set held to the mixed path constraints)")
 
 
 class OcpResultOptimality(ResultModel):
@@ -171,8 +181,8 @@ class OcpResultOptimality(ResultModel):
 
     held: bool | None = Field(None, description="Every condition checked held")
     checks: dict[str, OcpResultOptimalityCheck] | None = Field(
-        None, description="hamiltonian_constant, hamiltonian_final, stationarity, minimum_principle: those "
-        "that apply")
+        None, description="hamiltonian_constant, hamiltonian_final, stationarity, minimum_principle, "
+        "transversality: those that apply")
     message: str | None = Field(None, description="Which conditions were checked and which failed")
 
 
@@ -226,7 +236,7 @@ class OcpResultVerification(ResultModel):
     links: dict[str, OcpResultLinkCheck] | None = Field(
         None, description="Several phases: each stated link's value at the solution against its bounds")
     optimality: OcpResultOptimality | None = Field(
-        None, description="Necessary conditions of optimality from the costates (multiple shooting)")
+        None, description="Necessary conditions of optimality from the costates (both transcriptions)")
 
 
 class OcpResultPhaseSolver(ResultModel):
@@ -337,7 +347,7 @@ def _map(d) -> dict:
 
 
 def _optimality(p: dict) -> dict:
-    """The phase's costates and Hamiltonian at the nodes, where estimated (multiple shooting)."""
+    """The phase's costates and Hamiltonian at the nodes."""
     if p.get("costates") is None:
         return {}
     return {"costates": {str(k): json_value(v) for k, v in p["costates"].items()},
