@@ -141,6 +141,7 @@ class Settings(BaseSettings):
     ocp_max_intervals: int = Field(default=1000, ge=1, description="ocp: transcription.intervals")
     ocp_max_constraints: int = Field(default=200, ge=0, description="ocp: path (and boundary) constraints")
     ocp_max_starts: int = Field(default=16, ge=1, description="ocp: search.starts (initial guesses, each a solve)")
+    ocp_max_monte_carlo_samples: int = Field(default=100_000, ge=100, description="ocp: robust.monte_carlo.samples")
     ocp_max_refinements: int = Field(default=20, ge=0, description="ocp: transcription.max_refinements "
                                      "(mesh-refinement rounds when accuracy is set)")
 

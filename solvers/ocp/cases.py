@@ -305,5 +305,7 @@ PRESETS.update({
 # The literature catalogue (issue 35 item 7): solvers/ocp/catalogue/, one module per problem.
 # After PRESETS exists; the catalogue never imports this module.
 from solvers.ocp.catalogue import CATALOGUE  # noqa: E402 (after PRESETS, as said above)
+from solvers.ocp.robust.presets import ROBUST_PRESETS  # noqa: E402 (robust design, with their twins)
 
 PRESETS.update(CATALOGUE)
+PRESETS.update(ROBUST_PRESETS)

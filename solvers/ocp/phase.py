@@ -122,9 +122,10 @@ class PhaseNLP:
     """
 
     def __init__(self, problem: PhaseProblem, fns: PhaseFunctions, *, ipopt: dict | None = None,
-                 build: bool = True):
+                 build: bool = True, structure: tuple | None = None):
         """``build=False``: the layout and the elements only, no solver (a block of the
-        problem's NLP of several phases, :mod:`solvers.ocp.trajectory`)."""
+        problem's NLP of several phases, :mod:`solvers.ocp.trajectory`); ``structure``: the cache key's
+        structure when ``fns`` are not the problem's own (the robust phase, :mod:`solvers.ocp.robust`)."""
         self.fns, self.grid = fns, grid_of(problem)
         self.sign = -1.0 if problem.objective.sense == "maximize" else 1.0
         g = self.grid
@@ -134,7 +135,7 @@ class PhaseNLP:
             self.solver, self.was_cached = None, False
             self.layout = [(el.name, el.ny * el.count) for el in self.elements() if el.ny]
             return
-        key = ("ocp", problem.structure(), BLOCKS, tuple(sorted((ipopt or {}).items())))
+        key = ("ocp", structure or problem.structure(), BLOCKS, tuple(sorted((ipopt or {}).items())))
         self.solver, self.was_cached = cached_solver(key, lambda: self._build(ipopt or {}))
         self.layout = self.solver.layout
 

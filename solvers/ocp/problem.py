@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 from solvers.ocp.expressions import Expr, to_text
+from solvers.ocp.robust.model import RobustSpec
 
 PHASE_FIELDS = ("states", "controls", "time", "expressions", "dynamics", "path", "boundary", "transcription",
                 "guess", "state_names", "control_names")
@@ -225,6 +226,7 @@ class OcpProblem:
     single: bool = False                  # posed with the single-phase fields (no ``phases``)
     starts: int = 1                       # search.starts: initial guesses (solvers.ocp.starts)
     seed: int = 0                         # search.seed: the varied starts' random numbers
+    robust: RobustSpec | None = None      # uncertainty and robust design (solvers.ocp.robust)
 
     @property
     def phase_names(self) -> tuple[str, ...]:

@@ -37,6 +37,7 @@ class OcpLimits:
     max_constraints: int = 200
     max_refinements: int = 20          # transcription.max_refinements (mesh-refinement rounds)
     max_starts: int = 16               # search.starts (initial guesses, each a solve)
+    max_monte_carlo_samples: int = 100_000   # robust.monte_carlo.samples
 
 
 def expression_parser(limits: OcpLimits):

@@ -20,7 +20,7 @@ PHASE_SECTIONS = ("states", "controls", "time", "expressions", "dynamics", "path
                   "guess")
 # what every phase shares, at the top level
 SHARED = ("title", "constants", "tables", "parameters", "objective", "guess", "plots", "accuracy",
-          "accuracy_required", "search")
+          "accuracy_required", "search", "uncertainty", "robust")
 
 FIELDS: dict[str, tuple[str, ...]] = {
     "params": tuple(dict.fromkeys((*SHARED[:4], *PHASE_SECTIONS, *SHARED[4:]))),   # posed as one phase

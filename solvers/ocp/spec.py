@@ -21,6 +21,7 @@ from solvers.ocp import phases_spec
 from solvers.ocp.expressions import OcpInputError, Scope
 from solvers.ocp.phase_spec import Shared, declarations, parse_phase, time_spec
 from solvers.ocp.problem import NamedPhase, Objective, OcpProblem, PhaseProblem, PhaseTime, TableDecl, TimeSpec
+from solvers.ocp.robust.spec import parse_robust
 from solvers.ocp.shape import FIELDS
 from solvers.ocp.readers import (
     Names,
@@ -64,6 +65,9 @@ def parse_problem(params: dict, limits: OcpLimits = DEFAULT_LIMITS) -> OcpProble
     if objective.get("expr") is None and objective.get("integrand") is None:
         raise OcpInputError(f"{P}.objective", "give expr (Mayer term), integrand (Lagrange term) or both")
     if several:
+        if params.get("uncertainty") is not None or params.get("robust") is not None:
+            raise OcpInputError(f"{P}.robust", "robust design of several phases is not done yet (issue 37): "
+                                               "pose the problem as one phase")
         return _several(params, shared, objective, limits)
     time = time_spec(object_at(params.get("time"), f"{P}.time"), f"{P}.time")
     one = parse_phase(params, path=P, shared=shared, time=time, objective=objective, limits=limits, mayer=True)
@@ -73,7 +77,18 @@ def parse_problem(params: dict, limits: OcpLimits = DEFAULT_LIMITS) -> OcpProble
                       parameters=shared.parameters, phases=(NamedPhase("", window, one),), objective=one.objective,
                       from_job=one.phase.guess.from_job, plots=_plots(params, [one]), accuracy=shared.accuracy,
                       accuracy_required=shared.accuracy_required, single=True, starts=shared.starts,
-                      seed=shared.seed)
+                      seed=shared.seed,
+                      robust=_robust(params, one, limits))
+
+
+def _robust(params: dict, one: PhaseProblem, limits: OcpLimits):
+    """``uncertainty`` and ``robust`` (:mod:`solvers.ocp.robust.spec`) of a problem posed as one phase."""
+    ph, obj = one.phase, one.objective
+    trees = [*ph.dynamics, *(e for _, e in ph.expressions), *(c.expr for c in ph.path),
+             *(c.expr for c in ph.boundary), *(e for e in (obj.expr, obj.integrand) if e is not None)]
+    return parse_robust(params, constants=dict(one.constants), states=ph.state_names, trees=trees,
+                        path_names=tuple(c.name for c in ph.path), boundary_names=tuple(c.name for c in ph.boundary),
+                        sense=obj.sense, max_samples=limits.max_monte_carlo_samples)
 
 
 def _shared(params: dict, limits: OcpLimits) -> Shared:

@@ -65,7 +65,7 @@ class MCModel:
     nu: int
     ns: int
     rhs: ArrayFn
-    terminal: Callable[[np.ndarray], dict[str, np.ndarray]]
+    terminal: Callable[..., dict[str, np.ndarray]]
     path: dict[str, PathConstraint] = field(default_factory=dict)
     trace: Callable[..., dict[str, np.ndarray]] | None = None
     sampled_terminal: tuple[str, ...] = ()
@@ -73,6 +73,9 @@ class MCModel:
     # kernel(x0=, s=, t_nodes=, controls=, substeps=, kept_nodes=) -> (xf, worst_fine, worst_node,
     # traces), the last three dicts by path or trace name; the same RK4, steps and checks.
     kernel: Callable[..., tuple] | None = None
+    # True: ``terminal(x, x0=, s=)`` also sees each sample's initial state and parameters (an objective
+    # in initial values or in an uncertain constant, as an ``ocp`` problem's Mayer term may be)
+    terminal_of_draw: bool = False
 
 
 _REGISTRY: dict[str, Callable[[dict], MCModel]] = {}
@@ -80,6 +83,7 @@ _LAZY = {
     # Resolved on first use so that importing this module stays cheap and a worker
     # needs nothing but the name.
     "shuttle_reentry": "solvers.robust_reentry.mc:monte_carlo_model",
+    "ocp": "solvers.ocp.robust.montecarlo:monte_carlo_model",
 }
 
 
@@ -124,12 +128,21 @@ def standard_normals(seed: int, start: int, count: int, dim: int) -> np.ndarray:
 
 
 def draw_samples(spec: dict, seed: int, start: int, count: int, *, nx: int, ns: int):
-    """Initial states (nx, count) and parameters (ns, count) of samples ``start..``."""
+    """Initial states (nx, count) and parameters (ns, count) of samples ``start..``.
+
+    ``spec["s_uniform"]`` (optional, one entry per parameter): ``[lower, upper]`` draws that parameter
+    uniformly (the normal CDF of its own standard normal, so the stream stays the same whatever the
+    split), ``null`` keeps the normal law of ``s_mean``, ``s_cov``.
+    """
     z = standard_normals(seed, start, count, nx + ns)
     x0 = np.asarray(spec["x0_mean"], float)[:, None] + np.zeros((nx, count))
     if spec.get("x0_cov") is not None:
         x0 = x0 + _sqrt_cov(spec["x0_cov"]) @ z[:nx]
     s = np.asarray(spec["s_mean"], float)[:, None] + _sqrt_cov(spec["s_cov"]) @ z[nx:]
+    for i, band in enumerate(spec.get("s_uniform") or []):
+        if band is not None:
+            from scipy.special import ndtr
+            s[i] = band[0] + (band[1] - band[0]) * ndtr(z[nx + i])
     return x0, s
 
 
@@ -237,7 +250,7 @@ def simulate_chunk(spec: dict, seed: int, start_index: int, count: int) -> dict:
         else:
             xf = propagate(model, x0=x0, s=s, t_nodes=spec["t_nodes"], controls=spec["controls"],
                            substeps=substeps, on_step=on_step)
-        term = model.terminal(xf)
+        term = model.terminal(xf, x0=x0, s=s) if model.terminal_of_draw else model.terminal(xf)
     ok = np.all(np.isfinite(xf), axis=0)
     out: dict = {"count": int(count), "failed": int(count - ok.sum()), "terminal": {}, "within": {},
                  "path": {}}

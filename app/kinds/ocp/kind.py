@@ -48,6 +48,9 @@ def run(params: OcpParams, ctx: JobContext) -> RunOutcome:
     problem = params.problem
     from_job = params.initial_guess.from_job
     guess = load_warm_start(ctx, from_job, problem) if from_job else None
+    if problem.robust is not None:
+        from app.kinds.ocp.robust_run import run_robust
+        return run_robust(params, ctx, guess=guess, t_start=t_start)
     if problem.starts > 1:                  # several starts, fanned out (app/kinds/ocp/search.py)
         return run_search(params, ctx, guess, from_job=from_job)
     try:

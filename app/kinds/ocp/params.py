@@ -5,12 +5,11 @@ the fields *mean* together (names that resolve, dynamics for every state, expres
 language, bounds in order, the limits) is decided once, by :func:`solvers.ocp.spec.parse_problem`
 (stdlib only, safe here), through :func:`check_problem`.
 
-Why the whole-problem check hangs on :meth:`OcpParams.model_validate` rather than on a model
-validator: the ``params`` of a submission are a partial override of a preset (``{"constants":
-{"g": 1.62}}`` on ``brachistochrone``), so the problem exists only once the preset and the
-overrides are merged.  :func:`app.service.params.resolve_params` validates that merged set with
-``model_validate`` (so do the worker and the studies), and a malformed problem is a 422 naming
-``params.<path>`` before anything is stored; the body's own validation checks field shapes only.
+Why the whole-problem check hangs on :meth:`OcpParams.model_validate`, not on a model validator: a
+submission's ``params`` override a preset (``{"constants": {"g": 1.62}}`` on ``brachistochrone``), so
+the problem exists only once they are merged; :func:`app.service.params.resolve_params` validates the
+merged set with ``model_validate`` (so do the worker and the studies): a malformed problem is a 422
+naming ``params.<path>`` before anything is stored.  Robust design's models: :mod:`app.kinds.ocp.robust_params`.
 """
 from __future__ import annotations
 
@@ -21,6 +20,7 @@ from pydantic_core import PydanticCustomError, ValidationError
 
 from app.kinds.base import StrictModel
 from app.kinds.ocp.service_limits import limits, setting_of
+from app.kinds.ocp.robust_params import OcpRobust, OcpUncertainty
 from app.kinds.renamed import move_renamed
 
 NAME_PATTERN = r"^[A-Za-z_][A-Za-z0-9_]*$"
@@ -277,6 +277,9 @@ class OcpParams(StrictModel):
     links: list[OcpLink] = Field(default_factory=list, description="With phases: event constraints between "
                                  "phases (a stage's dropped mass, a time gap); each replaces the default "
                                  "continuity it relates", examples=[[]])
+    uncertainty: OcpUncertainty | None = Field(None, description="Uncertain constants and initial states "
+                                               "(robust design)", examples=[None])
+    robust: OcpRobust | None = Field(None, description="Robust design (with uncertainty)", examples=[None])
     plots: list[list[str]] = Field(default_factory=list, max_length=MAX_PLOT_PAIRS,
                                    description="Extra plots: pairs [x, y] of names (t, states, controls, "
                                    "expressions), drawn besides every quantity against time",
@@ -340,20 +343,24 @@ def check_problem(params: OcpParams, settings=None):
     the parser names (``dynamics.v``), its message the reason, and the setting for a limit."""
     from solvers.ocp.spec import OcpInputError, parse_problem
 
-    data = params.model_dump(mode="json")
-    if params.phases is not None:
-        data = _multiphase_data(params)
-    else:
-        data[PARSER_GUESS] = data.pop("initial_guess")
-        data.pop("phases", None)
-        if data.pop("links", None):
-            _fail(("links",), "links relate phases: give params.phases", data)
+    data = parser_data(params)
+    if params.phases is None and params.links:
+        _fail(("links",), "links relate phases: give params.phases", data)
     try:
         return parse_problem(data, limits(settings))
     except OcpInputError as exc:
         _fail(_loc(exc.path), setting_of(str(exc.reason)), data)
     except RecursionError:   # defence in depth: the parser bounds its recursion by the node limit
         _fail((), "the problem is nested too deeply", data)
+
+
+def parser_data(params: OcpParams) -> dict:
+    """The params as the parser (:func:`solvers.ocp.parse_problem`) reads them: what a worker parses again."""
+    if params.phases is not None:
+        return _multiphase_data(params)
+    data = {k: v for k, v in params.model_dump(mode="json").items() if k not in ("phases", "links")}
+    data[PARSER_GUESS] = data.pop("initial_guess")
+    return data
 
 
 def _multiphase_data(params: OcpParams) -> dict:

@@ -13,6 +13,7 @@ from pydantic import Field
 
 from app.kinds.base import json_float, json_value
 from app.kinds.result_models import Num, ResultModel, Series
+from app.kinds.ocp.robust_result import OcpRobustResult
 
 
 class OcpResultObjective(ResultModel):
@@ -340,6 +341,8 @@ class OcpResult(ResultModel):
     notes: list[str] = Field(description="How the answer was obtained and what to keep in mind")
     search: OcpResultSearch | None = Field(None, description="Several starts (params.search.starts > 1): the "
                                            "result is the best start's")
+    robust: OcpRobustResult | None = Field(None, description="Robust design (with uncertainty): the design's "
+                                           "Monte Carlo beside CADET, the kept shares, confirmed")
 
 
 def _map(d) -> dict:

@@ -1,0 +1,319 @@
+"""Robust design of an ``ocp`` problem: the deterministic twin, the robust NLP, the mean re-flown, CADET's
+prediction and the Monte Carlo's verdict.
+
+:func:`solve_robust` solves the deterministic twin (:func:`solvers.ocp.solver.solve`: the same problem with
+every constant at its mean; its answer warm-starts the robust NLP and prices robustness), then the robust
+NLP (:class:`solvers.ocp.robust.nlp.RobustNLP`), and checks the design's mean trajectory exactly as a
+deterministic answer is checked (:func:`solvers.ocp.check.check_phase`: the DOP853 re-flight, the limits
+between the nodes).  CADET's prediction is evaluated at the nodes and between them (``DENSE`` RK4 steps per
+interval of the augmented system): the objective's mean and sigma and, per named constraint, the worst
+``mu +- k sigma`` against its bounds.  :func:`confirm` folds a Monte Carlo summary of the design
+(:mod:`solvers.ocp.robust.montecarlo`, run by the caller: in process or fanned across workers) into the
+result's ``robust`` block (``shared/specs/ocp.md``, "Robust design") and decides ``confirmed``.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from types import SimpleNamespace
+
+import numpy as np
+
+from solvers.common import Outcome, ProgressFn, StopFn
+from solvers.ocp.check import AGREEMENT_TOLERANCE, check_phase
+from solvers.ocp.robust.montecarlo import monte_carlo_spec
+from solvers.ocp.robust.nlp import Design, RobustNLP
+from solvers.ocp.solution import OcpSolution, solution_of
+from solvers.ocp.solver import WARM_IPOPT, Placed
+from solvers.ocp.solver import solve as solve_deterministic
+from solvers.ocp.trajectory import TrajectoryNLP
+from solvers.uncertainty.confirm import kept_enough, normal_share, quantile, sampling_tolerance
+
+DENSE = 10               # RK4 steps per interval of CADET's check between the nodes
+MAX_ROUNDS = 4           # tighten-and-re-solve rounds for the robust path limits between the nodes
+MARGIN_GROWTH = 1.5      # a round tightens by this times the excess (the excess moves as the answer does)
+HELD = 1e-4              # a scaled excess below this counts as held (the re-flight's tolerance is 1e-3)
+
+
+@dataclass
+class RobustSolution:
+    """The design (``solution``: the mean trajectory as an ``ocp`` answer), its twin, CADET's prediction
+    and the Monte Carlo spec that confirms it."""
+
+    solution: OcpSolution
+    deterministic: OcpSolution
+    prediction: dict = field(default_factory=dict)
+    monte_carlo_spec: dict | None = None
+    timing: dict = field(default_factory=dict)
+    design: Design | None = None
+
+
+def solve_robust(problem, *, params: dict, initial_guess: dict | None = None, on_progress: ProgressFn | None = None,
+                 should_stop: StopFn | None = None, k_constraints: float | None = None,
+                 deterministic: OcpSolution | None = None) -> RobustSolution:
+    """The robust design of ``problem`` (its ``robust`` spec; ``params``: the problem as data, which the
+    Monte Carlo's workers parse again); ``k_constraints``: the constraints' k when a confirmation round
+    raised it (default the spec's ``k``); ``deterministic``: the twin's answer when already solved."""
+    progress = on_progress or (lambda f, m: None)
+    rob = problem.robust
+    k_c = rob.k if k_constraints is None else k_constraints
+    t_start = time.perf_counter()
+    progress(0.0, "solving the deterministic twin")
+    det = deterministic or solve_deterministic(problem, initial_guess=initial_guess, should_stop=should_stop)
+    t_det = time.perf_counter() - t_start
+    if not det.status.ok:
+        det.notes.append("the deterministic twin failed: no robust design was attempted")
+        return RobustSolution(solution=det, deterministic=det, timing={"deterministic_s": t_det})
+    progress(0.3, "solving the robust NLP (CADET)")
+    t1 = time.perf_counter()
+    R = RobustNLP(problem, rob)
+    assert R.nlp.solver is not None   # built with its solver
+    warm = {**det.phases[0], "parameters": det.parameters, "objective": det.objective}
+    placed = R.place(det_warm=warm, k=rob.k, k_c=k_c)
+    res = R.nlp.solver.solve(x0=placed["z0"], lbx=placed["lbz"], ubx=placed["ubz"], lbg=placed["lbg"],
+                             ubg=placed["ubg"], p=placed["p"], should_stop=should_stop, on_progress=on_progress,
+                             progress_span=(0.3, 0.8), label="robust IPOPT")
+    design = R.design(res.x, placed)
+    prediction = predict(R, design, rob, k_c)
+    res, design, prediction, rounds = _hold_between_nodes(R, placed, res, design, prediction, rob, k_c, should_stop)
+    t_rob = time.perf_counter() - t1
+    sol = _mean_solution(problem, R, design, res)
+    if rounds:
+        sol.notes.append(f"robust path limits tightened where CADET's mean +- k sigma exceeded them between the "
+                         f"nodes: {len(rounds)} round(s)")
+    prediction.pop("per_interval", None)
+    sol.notes.insert(0, f"robust design (CADET, k = {rob.k:g}, objective {rob.objective}): the trajectory is the "
+                        f"mean; the deterministic twin's objective is {det.objective:.6g}")
+    spec = monte_carlo_spec(params, problem=problem, rob=rob, t_nodes=design.t_nodes, U=design.U,
+                            x0=design.Z[:, 0], tf=design.tf, theta=design.theta) if res.status.ok else None
+    progress(0.85, "robust design solved; Monte Carlo next")
+    return RobustSolution(solution=sol, deterministic=det, prediction=prediction, monte_carlo_spec=spec,
+                          timing={"deterministic_s": t_det, "robust_s": t_rob, "limit_rounds": len(rounds),
+                                  "robust_iterations": res.status.iterations,
+                                  "deterministic_iterations": det.status.iterations}, design=design)
+
+
+def _hold_between_nodes(R: RobustNLP, placed: dict, res, design: Design, prediction: dict, rob, k_c: float,
+                        should_stop):
+    """Tighten-and-re-solve rounds (as :mod:`solvers.ocp.limits` for a deterministic answer): where CADET's
+    ``mu +- k sigma`` of a named path constraint exceeds its bound between the nodes of an interval, that
+    bound is tightened at the interval's two nodes by the excess (times ``MARGIN_GROWTH``) and the NLP
+    re-solved from its answer; at most ``MAX_ROUNDS``."""
+    g = R.grid
+    assert R.nlp.solver is not None
+    rows = _path_rows(R)
+    n_rows = R.rf.n_path
+    start = sum(n for name, n in R.nlp.layout if name == "defects")
+    lbg, ubg = placed["lbg"].copy(), placed["ubg"].copy()
+    rounds = []
+    for _ in range(MAX_ROUNDS):
+        per = prediction.get("per_interval") or {}
+        if not per or all(max(np.max(a), np.max(b)) <= HELD for a, b in per.values()):
+            break
+        if should_stop is not None and should_stop():
+            break
+        for j, (e_hi, e_lo) in per.items():
+            for i in np.flatnonzero(e_hi > HELD):
+                for node in (i, i + 1):
+                    ubg[start + node * n_rows + rows[j]] -= MARGIN_GROWTH * e_hi[i]
+            for i in np.flatnonzero(e_lo > HELD):
+                for node in (i, i + 1):
+                    lbg[start + node * n_rows + rows[j] + 1] += MARGIN_GROWTH * e_lo[i]
+        r = R.nlp.solver.solve(x0=res.x, lbx=placed["lbz"], ubx=placed["ubz"], lbg=lbg, ubg=ubg, p=placed["p"],
+                               lam_x0=res.lam_x, lam_g0=res.lam_g, should_stop=should_stop, expected_iterations=15,
+                               label="robust limit round")
+        rounds.append({"status": r.status.solver_status, "iterations": r.status.iterations})
+        if not r.status.ok:
+            break
+        res = r
+        design = R.design(res.x, placed)
+        prediction = predict(R, design, rob, k_c)
+    del g
+    return res, design, prediction, rounds
+
+
+def _mean_solution(problem, R: RobustNLP, design: Design, res) -> OcpSolution:
+    """The design's mean as an ``ocp`` answer: checked and reported as a deterministic one (no costates:
+    the deterministic optimality conditions do not apply to a robust design)."""
+    nlp = TrajectoryNLP(problem, ipopt=WARM_IPOPT)
+    placed = Placed(problem, nlp, None)
+    b, num = nlp.blocks[0], placed.nums[0]
+    nx = R.rf.base.nx
+    z = b.nlp.pack(design.tf, design.theta, design.Z[:nx], design.U)
+    check = check_phase(b, num, z, t0=R.php.phase.time.initial, agreement=problem.accuracy or AGREEMENT_TOLERANCE,
+                        single=True, mu=None)
+    status = res.status
+    if status.ok and not check.ok:
+        status.outcome = Outcome.FAILED
+        status.message += "; " + check.verification.message
+    return solution_of(problem, nlp=nlp, res=SimpleNamespace(f=float(res.f)), status=status,
+                       checks=[check], rounds=[])
+
+
+def predict(R: RobustNLP, design: Design, rob, k_c: float) -> dict:
+    """CADET's objective mean and sigma, and per named constraint the worst ``mu +- k sigma`` at the nodes
+    and between them (``DENSE`` steps per interval) against its bounds (scaled excess, <= 0 held)."""
+    rf, g = R.rf, R.grid
+    ph = R.php.phase
+    c_aug = R.constants(rob.k, k_c, R.eps_default() * 0.0)
+    t0 = ph.time.initial
+    Z, tf, th = design.Z, design.tf, design.theta
+    Un = R.nlp.node_controls(design.U)
+    mu, var = rf.objective_moments(t0, tf, Z[:, 0], Z[:, -1], Un[:, 0], Un[:, -1], th, c_aug)
+    out: dict = {"objective": {"mean": float(mu), "std": float(np.sqrt(max(float(var), 0.0)))}, "constraints": {}}
+    bm, bv = rf.boundary_moments(t0, tf, Z[:, 0], Z[:, -1], Un[:, 0], Un[:, -1], th, c_aug)
+    bm, bv = np.asarray(bm, float).ravel(), np.asarray(bv, float).ravel()
+    for j, cn in enumerate(ph.boundary):
+        if cn.name in rob.constraints:
+            sd = float(np.sqrt(max(bv[j], 0.0)))
+            out["constraints"][cn.name] = {"kind": "boundary", "mean": float(bm[j]), "std": sd,
+                                           "excess_scaled": _excess(bm[j] + k_c * sd, bm[j] - k_c * sd, cn)}
+    named = [(j, cn) for j, cn in enumerate(ph.path) if cn.name in rob.constraints]
+    per_interval: dict[int, tuple] = {}
+    out["per_interval"] = per_interval
+    if named:
+        F = R.interval(1)
+        rows = _path_rows(R)
+        worst = {cn.name: (-np.inf, -np.inf) for _, cn in named}
+        ts, zs, us = [], [], []
+        for i in range(g.intervals):
+            ta, tb = design.t_nodes[i], design.t_nodes[i + 1]
+            ua = design.U[:, min(i, design.U.shape[1] - 1)]
+            ub = design.U[:, min(i + 1, design.U.shape[1] - 1)] if g.control == "linear" else ua
+            z = Z[:, i]
+            for j in range(DENSE + 1):
+                f = j / DENSE
+                ts.append(ta + f * (tb - ta))
+                zs.append(z)
+                us.append(ua + f * (ub - ua))
+                if j < DENSE:
+                    h = (tb - ta) / DENSE
+                    u1, u2 = ua + f * (ub - ua), ua + (f + 1.0 / DENSE) * (ub - ua)
+                    z = np.asarray(F(z, u1, u2, ts[-1], h, th, c_aug, t0, tf)[0], float).ravel()
+        T, Zd, Ud = np.array(ts), np.array(zs).T, np.array(us).T
+        P = np.asarray(rf.fns.path.map(T.size)(T[None, :], Zd, Ud, th, c_aug, t0, tf), float)
+        is_node = np.zeros(T.size, bool)
+        is_node[::DENSE + 1] = True
+        is_node[DENSE::DENSE + 1] = True
+        for j, cn in named:
+            hi, lo = P[rows[j]], P[rows[j] + 1]
+            e_hi, e_lo = _excess_v(hi, None, cn), _excess_v(None, lo, cn)
+            e = np.maximum(e_hi, e_lo)
+            per_interval[j] = (e_hi.reshape(g.intervals, DENSE + 1).max(axis=1),
+                               e_lo.reshape(g.intervals, DENSE + 1).max(axis=1))
+            worst[cn.name] = (float(np.max(e[is_node])), float(np.max(e)))
+            out["constraints"][cn.name] = {"kind": "path", "excess_scaled_nodes": worst[cn.name][0],
+                                           "excess_scaled_dense": worst[cn.name][1],
+                                           "held_between_nodes": bool(worst[cn.name][1] <= 1e-3)}
+    return out
+
+
+def _path_rows(R: RobustNLP) -> dict[int, int]:
+    """The first row of each path constraint in the augmented path function."""
+    rows, r = {}, 0
+    for j, robust in enumerate(R.lay.robust_path):
+        rows[j] = r
+        r += 2 if robust else 1
+    return rows
+
+
+def _scale(cn) -> float:
+    mags = [abs(v) for v in (cn.lower, cn.upper) if v is not None and v != 0.0]
+    return max(mags) if mags else 1.0
+
+
+def _excess_v(hi, lo, cn) -> np.ndarray:
+    """Scaled excess of the upper row over ``upper`` (or of ``lower`` over the lower row); -inf if unbounded."""
+    if hi is not None:
+        return (np.asarray(hi) - cn.upper) / _scale(cn) if cn.upper is not None else np.full(np.shape(hi), -np.inf)
+    return (cn.lower - np.asarray(lo)) / _scale(cn) if cn.lower is not None else np.full(np.shape(lo), -np.inf)
+
+
+def _excess(hi: float, lo: float, cn) -> float:
+    return float(max(_excess_v(np.array([hi]), None, cn)[0], _excess_v(None, np.array([lo]), cn)[0]))
+
+
+def confirm(rs: RobustSolution, summary: dict, rob) -> dict:
+    """The result's ``robust`` block from the Monte Carlo ``summary`` (:func:`solvers.uncertainty.montecarlo.merge_chunks`)."""
+    n = int(summary["samples"])
+    ok_share = 1.0 - summary.get("failed_samples", 0) / max(n, 1)
+    required = normal_share(rob.k)
+    obj = summary["terminal"].get("objective", {"mean": float("nan"), "std": float("nan")})
+    cons, confirmed = {}, True
+    for name in rob.constraints:
+        if name in summary.get("path", {}):
+            kept = float(summary["path"][name]["kept_fraction"])
+        else:
+            kept = float(summary["terminal"][f"kept:{name}"]["mean"]) * ok_share
+        held = kept_enough(kept, required, n)
+        confirmed &= held
+        cons[name] = {"kept_fraction": kept, "required_fraction": required, "kept": held,
+                      "sampling_tolerance": sampling_tolerance(required, n),
+                      "cadet": rs.prediction.get("constraints", {}).get(name)}
+    det = rs.deterministic.objective
+    return {"k": rob.k, "statistic": rob.objective, "samples": n, "failed_samples": summary.get("failed_samples", 0),
+            "objective": {"mean": obj["mean"], "std": obj["std"],
+                          "cadet_mean": rs.prediction["objective"]["mean"],
+                          "cadet_std": rs.prediction["objective"]["std"]},
+            "constraints": cons, "confirmed": bool(confirmed),
+            "deterministic_objective": det, "robust_objective": rs.solution.objective,
+            "cost_of_robustness": rs.solution.objective - det,
+            "timing": rs.timing}
+
+
+K_OVERSHOOT = 0.1        # added to the quantile gap when a round raises the constraints' k (as robust_reentry)
+
+
+def design_and_confirm(problem, *, params: dict, run_monte_carlo, seed: int = 0, initial_guess: dict | None = None,
+                       on_progress: ProgressFn | None = None, should_stop: StopFn | None = None):
+    """The robust design confirmed by its Monte Carlo: ``(RobustSolution, robust block, Monte Carlo summary)``.
+
+    ``run_monte_carlo(spec, samples, seed)`` runs the draws (in process, or fanned across workers by the
+    service).  Where a named constraint is kept less than promised (the per-instant bound promises more
+    than a whole flight keeps, and a linearisation can under-predict a spread), the constraints' k is
+    raised by the gap in normal quantiles plus ``K_OVERSHOOT`` and the design re-solved and re-flown, at
+    most ``robust.monte_carlo.rounds`` times; the objective keeps the user's k.  The block of the last
+    round is the answer, the rounds listed in it.
+    """
+    rob = problem.robust
+    k_c, det, history = rob.k, None, []
+    rs = block = summary = None
+    for r in range(rob.rounds + 1):
+        rs = solve_robust(problem, params=params, initial_guess=initial_guess, on_progress=on_progress,
+                          should_stop=should_stop, k_constraints=k_c, deterministic=det)
+        det = rs.deterministic
+        if rs.monte_carlo_spec is None:
+            return rs, None, None
+        spec = scaled_spec(rs.monte_carlo_spec, rob.sigma_factor)
+        t = time.perf_counter()
+        summary = run_monte_carlo(spec, rob.samples, seed)
+        block = confirm(rs, summary, rob)
+        block["timing"]["monte_carlo_s"] = time.perf_counter() - t
+        block["k_constraints"] = k_c
+        history.append({"round": r, "k_constraints": k_c, "objective": rs.solution.objective,
+                        "kept_fractions": {n: c["kept_fraction"] for n, c in block["constraints"].items()},
+                        "confirmed": block["confirmed"]})
+        short = [c for c in block["constraints"].values() if not c["kept"]]
+        if block["confirmed"] or not short or (should_stop is not None and should_stop()):
+            break
+        if r < rob.rounds:
+            gap = max(quantile(c["required_fraction"]) - quantile(c["kept_fraction"]) for c in short)
+            k_c = k_c + max(gap, 0.0) + K_OVERSHOOT
+    assert block is not None
+    block["rounds"] = history
+    block["sigma_factor"] = rob.sigma_factor
+    return rs, block, summary
+
+
+def scaled_spec(spec: dict, factor: float) -> dict:
+    """The Monte Carlo spec with every sigma times ``factor`` (uniform laws widened about their means)."""
+    if factor == 1.0:
+        return spec
+    out = dict(spec)
+    out["s_cov"] = (np.asarray(spec["s_cov"], float) * factor ** 2).tolist()
+    if spec.get("x0_cov") is not None:
+        out["x0_cov"] = (np.asarray(spec["x0_cov"], float) * factor ** 2).tolist()
+    out["s_uniform"] = [None if b is None else [0.5 * (b[0] + b[1]) - 0.5 * factor * (b[1] - b[0]),
+                                                0.5 * (b[0] + b[1]) + 0.5 * factor * (b[1] - b[0])]
+                        for b in spec.get("s_uniform") or []]
+    return out
