@@ -141,7 +141,7 @@ def _mean_solution(problem, R: RobustNLP, design: Design, res) -> OcpSolution:
     nx = R.rf.base.nx
     z = b.nlp.pack(design.tf, design.theta, design.Z[:nx], design.U)
     check = check_phase(b, num, z, t0=R.php.phase.time.initial, agreement=problem.accuracy or AGREEMENT_TOLERANCE,
-                        single=True, mu=None)
+                        single=True, mult=None)
     status = res.status
     if status.ok and not check.ok:
         status.outcome = Outcome.FAILED
