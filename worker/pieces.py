@@ -43,7 +43,7 @@ class _Lease:
     def _renew(self) -> None:
         while not self.done.wait(LEASE_S / 3):
             try:
-                self.r.expire(self.key, int(LEASE_S))
+                self.r.pexpire(self.key, int(LEASE_S * 1000))
             except redis.RedisError:  # the lease lapses; the piece may be computed twice, harmlessly
                 pass
 
@@ -80,7 +80,7 @@ def compute_piece(r: redis.Redis, run_id: str, index: int, *, who: str,
     if r.hexists(keys["results"], str(index)):
         return False
     claim = f"{keys['claim']}:{index}"
-    if not r.set(claim, who, nx=True, ex=int(LEASE_S)):
+    if not r.set(claim, who, nx=True, px=int(LEASE_S * 1000)):
         return False
     raw = r.get(keys["spec"])
     if raw is None:   # the run finished or expired

@@ -22,6 +22,8 @@ def test_one_failing_start_does_not_fail_the_job(service):
     assert len(failed) == 1 and failed[0]["code"] == "numerical_overflow", search["each"]
     # every start was computed by a process of the service (the job's own or another worker's) and says which
     assert all(e["by"] for e in search["each"]), search["each"]
+    # the worker's other pool process took some while the job's own built its first NLP (~17 s)
+    assert any(not e["by"].startswith("job@") for e in search["each"]), search["each"]
     assert len(search["distinct_optima"]) == 1 and search["distinct_optima"][0]["count"] == 3
     best = search["each"][search["best_start"]]
     assert best["status"] == "succeeded" and result["objective"]["value"] == best["objective"]

@@ -123,6 +123,18 @@ def test_starts_past_the_setting_are_a_422_naming_it_and_each_start_costs():
     assert cost({**WELL, "search": {"starts": 4}}) == pytest.approx(4 * cost(WELL))
 
 
+def test_several_phases_start_from_varied_guesses_too():
+    # the two-stage ascent (app preset two-stage-ascent): every start reaches the closed-form apogee
+    from solvers.ocp import PRESETS
+
+    case = PRESETS["two-stage-ascent"]
+    out = solve({**case["params"], "search": {"starts": 2}})
+    assert out.status == "succeeded", out.error
+    search = out.result["search"]
+    assert search["succeeded"] == 2 and len(search["distinct_optima"]) == 1
+    assert out.result["objective"]["value"] == pytest.approx(case["optimum"], abs=case["tolerance"])
+
+
 def test_distinct_optima_group_within_the_tolerance():
     groups = distinct_optima([1.0, 1.0 + 1e-7, 2.0, 0.5, float("nan")], tolerance=1e-5, sense="minimize")
     assert groups == [{"objective": 0.5, "count": 1}, {"objective": 1.0, "count": 2}, {"objective": 2.0, "count": 1}]
