@@ -69,6 +69,11 @@ def parse_problem(params: dict, limits: OcpLimits = DEFAULT_LIMITS) -> OcpProble
             raise OcpInputError(f"{P}.robust", "robust design of several phases is not done yet (issue 37): "
                                                "pose the problem as one phase")
         return _several(params, shared, objective, limits)
+    if shared.starts > 1 and (params.get("uncertainty") is not None or params.get("robust") is not None):
+        # each start would be a robust solve and its Monte Carlo: search first, then design from the best
+        raise OcpInputError(f"{P}.search.starts", "several starts of a robust design are not done: search the "
+                                                  "deterministic problem (search.starts), then warm-start the "
+                                                  "robust design from its best answer (initial_guess.from_job)")
     time = time_spec(object_at(params.get("time"), f"{P}.time"), f"{P}.time")
     one = parse_phase(params, path=P, shared=shared, time=time, objective=objective, limits=limits, mayer=True)
     window = PhaseTime(initial=time.initial, final=time.final, final_lower=time.final_lower,

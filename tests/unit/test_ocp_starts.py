@@ -135,6 +135,15 @@ def test_several_phases_start_from_varied_guesses_too():
     assert out.result["objective"]["value"] == pytest.approx(case["optimum"], abs=case["tolerance"])
 
 
+def test_several_starts_of_a_robust_design_are_refused_naming_the_field():
+    from solvers.ocp import OcpInputError, parse_problem
+    from tests.unit.test_ocp_robust import LINEAR
+
+    with pytest.raises(OcpInputError) as exc:
+        parse_problem({**LINEAR, "search": {"starts": 2}})
+    assert exc.value.path == "params.search.starts" and "initial_guess.from_job" in exc.value.reason
+
+
 def test_distinct_optima_group_within_the_tolerance():
     groups = distinct_optima([1.0, 1.0 + 1e-7, 2.0, 0.5, float("nan")], tolerance=1e-5, sense="minimize")
     assert groups == [{"objective": 0.5, "count": 1}, {"objective": 1.0, "count": 2}, {"objective": 2.0, "count": 1}]
