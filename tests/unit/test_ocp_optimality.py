@@ -161,3 +161,38 @@ def test_the_result_carries_costates_and_the_headline_says_verified():
     assert len(out.result["hamiltonian"]) == len(out.result["trajectory"]["t"])
     words = [h.text for h in headlines(out.result, params)]
     assert any(w.startswith("optimality verified") for w in words), words
+
+
+# Orbit raising in fixed time (Bryson & Ho, Applied Optimal Control, 1975, sec. 2.5; nondimensional: mu = 1,
+# r(0) = 1, thrust 0.1405, mass 1 - 0.0749 t, tf = 3.32): maximise r(tf) on a circular final orbit.  The
+# thrust angle phi is bounded by +-10 rad, so it may wrap: started from the default straight-line guess
+# (phi = 0), IPOPT stops where phi jumps by more than 2 pi between two nodes, its linear interpolation
+# sweeping the thrust through a full turn inside that interval (a local optimum of the NLP, 1.5239); started
+# from an unwrapped guess it finds 1.5253, Bryson & Ho's 1.525.
+ORBIT: dict[str, Any] = {
+    "title": "Orbit raising", "constants": {"T": 0.1405, "mdot": 0.0749},
+    "states": [{"name": "r", "initial": 1.0, "lower": 0.5, "upper": 3.0}, {"name": "u", "initial": 0.0},
+               {"name": "v", "initial": 1.0}],
+    "controls": [{"name": "phi", "lower": -10.0, "upper": 10.0}],
+    "time": {"initial": 0.0, "final": 3.32},
+    "dynamics": {"r": "u", "u": "v**2/r - 1/r**2 + T*sin(phi)/(1 - mdot*t)",
+                 "v": "-u*v/r + T*cos(phi)/(1 - mdot*t)"},
+    "boundary": [{"name": "circular_u", "expr": "final(u)", "lower": 0.0, "upper": 0.0},
+                 {"name": "circular_v", "expr": "final(v) - sqrt(1/final(r))", "lower": 0.0, "upper": 0.0}],
+    "objective": {"sense": "maximize", "expr": "final(r)"},
+    "transcription": {"method": "multiple_shooting", "intervals": 40, "control": "linear", "substeps": 2}}
+
+
+def test_the_poor_orbit_raising_optimum_from_a_straight_line_is_flagged_by_the_minimum_principle():
+    poor = solve(parse_problem(ORBIT))
+    good = solve(parse_problem({**ORBIT, "guess": {"controls": {"phi": [0.4, 5.3]}}}))
+    assert poor.status.solver_status == good.status.solver_status == "Solve_Succeeded"
+    assert good.objective == pytest.approx(1.525, abs=1e-3) and good.objective > poor.objective + 1e-3
+    assert good.status.outcome is Outcome.OPTIMAL and good.verification["optimality"]["held"]
+    assert poor.status.outcome is Outcome.OPTIMALITY_NOT_VERIFIED and poor.verification["ok"]
+    mp = poor.verification["optimality"]["checks"]["minimum_principle"]
+    assert not mp["held"] and mp["value"] > 5 * mp["tolerance"]
+    # the worst gap lies in the interval where phi wraps: the H-minimising angle differs from the swept one
+    t, phi = (np.asarray(poor.trajectory[k]) for k in ("t", "phi"))
+    k = int(np.searchsorted(t, mp["t"], side="right")) - 1
+    assert abs(phi[k + 1] - phi[k]) > np.pi, (mp["t"], phi[k], phi[k + 1])
