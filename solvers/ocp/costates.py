@@ -12,10 +12,12 @@ the adjoint is carried back through interval 0, ``lambda_0 = dF_0/dx' lambda_1 +
 
 *LGL* (the integral form of :mod:`solvers.transcription.lgl`: ``X_i - X_0 - (h/2) sum_j A_ij F_j`` for
 ``i = 1..n-1`` on each segment): the KKT condition of an interior node ``j`` reads ``(h/2) w_j dH/dx(lambda_j)
-= -nu_j`` with ``lambda_j = -(sum_i A_ij nu_i) / w_j``, the costate mapping of the integral form (Garg,
-Patterson, Hager, Rao et al., "A unified framework for the numerical solution of optimal control problems
-using pseudospectral methods", Automatica 46(11), 2010, sec. 5: multipliers divided by the quadrature
-weights, after Benson's Gauss mapping; Fahroo & Ross 2001 for the differential LGL form).  A node shared by
+= -nu_j`` with ``lambda_j = -(sum_i A_ij nu_i) / w_j``: the integral form's costate mapping, multipliers
+over the quadrature weights as in Fahroo & Ross's covector mapping for the differential LGL form
+("Costate estimation by a Legendre pseudospectral method", JGCD 24(2), 2001) and Benson's for the Gauss
+form (Benson, Huntington, Thorvaldsen & Rao, JGCD 29(6), 2006, with its endpoint corrections); here it
+follows from the KKT conditions above, and tests/unit/test_ocp_costates.py holds it to closed forms at
+fourth order.  A node shared by
 two segments takes the mean of their two estimates.  The ends get the endpoint corrections, from the exact
 KKT conditions of the first and last nodes: ``lambda(t0) = -sum_i nu_i + (h/2) w_0 dH/dx`` and
 ``lambda(tf) = -nu_{n-1} - (h/2) w_{n-1} dH/dx``: these equal what the boundary multipliers say

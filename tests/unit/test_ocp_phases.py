@@ -319,6 +319,14 @@ def test_a_parameter_shared_by_phases_on_mixed_transcriptions():
     assert sol.objective == pytest.approx(1.8016, abs=1e-4)
     assert sol.phases[0]["final"]["x"] == pytest.approx(sol.parameters["xs"], abs=1e-8)
     assert sol.phases[1]["solver"]["method"] == "lgl" and sol.verification["agrees"]
+    # costates across the phases, each phase's by its own transcription (defect multipliers above, the LGL
+    # mapping below): x's costate is one constant (-sin(theta)/v, Snell), H = -1 in both (time continuous,
+    # Phi = tf of the last), every necessary condition held; 1e-4 is (h/T)^4 of LGL's 10 segments
+    lx = np.concatenate([p["costates"]["x"] for p in sol.phases])
+    assert np.ptp(lx) <= 1e-4 * abs(lx[0])
+    for p in sol.phases:
+        assert np.asarray(p["hamiltonian"]) == pytest.approx(-1.0, abs=1e-4)
+        assert p["verification"]["optimality"]["held"], p["verification"]["optimality"]["message"]
 
 
 def test_a_time_gap_link_and_an_integrand_of_one_phase():
