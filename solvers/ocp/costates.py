@@ -51,9 +51,6 @@ class PhaseMultipliers:
     upper: np.ndarray
     ends: np.ndarray              # d(events' Lagrangian: Mayer, boundary rows, links)/d(the phase's columns)
     path_ends: np.ndarray         # d(path rows' nu' g)/d(the phase's columns): a node's point multipliers
-    t0_end: float = 0.0           # the same for a phase's own initial time (several phases), scaled
-    t0_bound: float = 0.0         # its bound's multiplier, scaled
-    t0_free: bool = False         # the phase's initial time is a decision variable with room to move
 
 
 def _event_like(name: str) -> bool:
@@ -94,13 +91,9 @@ def multipliers_of(nlp, res, p: np.ndarray, lbz: np.ndarray, ubz: np.ndarray) ->
     for i, b in enumerate(nlp.blocks):
         d = per_phase[i]
         path = d["path"][0] if d["path"] else np.zeros((0, b.nlp.grid.n_nodes))
-        pm = PhaseMultipliers(defects=np.concatenate([m.T.ravel() for m in d["defects"]]), path=path,
+        out.append(PhaseMultipliers(defects=np.concatenate([m.T.ravel() for m in d["defects"]]), path=path,
                               lower=np.asarray(lbz, float)[b.colmap], upper=np.asarray(ubz, float)[b.colmap],
-                              bounds=lam_x[b.colmap], ends=grad[b.colmap], path_ends=pgrad[b.colmap])
-        if b.t0_col is not None:
-            pm.t0_end, pm.t0_bound = float(grad[b.t0_col]), float(lam_x[b.t0_col])
-            pm.t0_free = bool(ubz[b.t0_col] > lbz[b.t0_col])
-        out.append(pm)
+                              bounds=lam_x[b.colmap], ends=grad[b.colmap], path_ends=pgrad[b.colmap]))
     return out
 
 
