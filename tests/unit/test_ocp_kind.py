@@ -187,11 +187,12 @@ def test_presets_partial_overrides_and_study_paths_resolve(client):
     for point in points:
         resolved = resolve_params(SPEC, point.params, None)
         assert resolved["states"][1]["final"] in (4.0, 5.0)
-    # the Betts shuttle written as an ocp costs what the reentry kind's Betts preset costs
+    # the Betts shuttle written as an ocp costs per solve what the reentry kind's Betts preset costs; the ocp
+    # answer is that solve and its check on the mesh cut in 3 (linear multiple-shooting controls)
     betts = quota.estimate_cost("ocp", resolve_params(SPEC, PRESETS["betts-shuttle-ocp"].params, None))
     reentry = quota.estimate_cost("reentry", resolve_params(KINDS["reentry"], PRESETS["betts-max-crossrange"].params,
                                                             None))
-    assert betts == pytest.approx(reentry, rel=0.25)
+    assert betts == pytest.approx((1 + 3) * reentry, rel=0.25)
     r = client.post("/v1/studies", json={"kind": "ocp", "preset": "brachistochrone", "mode": "independent",
                                          "sweeps": [{"path": "states.1.final", "values": [4.0, 6.0]}]})
     assert r.status_code == 202, r.text
@@ -250,6 +251,43 @@ def test_cost_grows_with_the_problem_and_routes_heavy_problems_to_the_heavy_queu
     assert 0 < quota.estimate_cost("ocp", small) < cost(big) == quota.estimate_cost("ocp", big)
     assert quota.queue_for("ocp", quota.estimate_cost("ocp", small), settings) == QUEUE_JOBS
     assert quota.queue_for("ocp", quota.estimate_cost("ocp", big), settings) == QUEUE_HEAVY
+
+
+def test_cost_and_memory_count_the_check_solve_on_the_finer_mesh():
+    """Every answer is checked by a solve on its mesh with every interval cut in s parts (3 for linear
+    multiple-shooting controls, 2 otherwise: solvers.ocp.estimate.parts_of), an NLP s times the answer's:
+    the cost is (1 + s) solves of the answer's size, the memory that of the check's NLP, and a problem
+    whose own solve is under the heavy threshold goes to the heavy queue once its check is counted."""
+    from app.kinds.ocp.footprint import MEMORY, check_parts
+    from solvers.ocp.estimate import parts_of
+    from solvers.ocp.problem import Transcription
+
+    base = OcpParams.model_validate(BRACHISTOCHRONE).model_dump(mode="json")
+    cases = {("multiple_shooting", "linear"): 3, ("multiple_shooting", "constant"): 2, ("lgl", "linear"): 2}
+    one_solve = {}
+    for (method, control), parts in cases.items():
+        tr = {**base["transcription"], "method": method, "control": control}
+        # the request's parts are the solver's
+        assert check_parts(tr) == parts == parts_of(Transcription(method=method, control=control))
+        p = {**base, "transcription": tr}
+        one_solve[method, control] = cost(p) / (1 + parts)
+        doubled = {**p, "transcription": {**tr, "intervals": 2 * tr["intervals"]}}
+        assert cost(doubled) == pytest.approx(2 * cost(p))
+    # the same mesh and integration: one solve costs the same whatever the control's parametrisation; the
+    # memory is the check's NLP, 3 against 2 answers' worth
+    assert one_solve["multiple_shooting", "linear"] == pytest.approx(one_solve["multiple_shooting", "constant"])
+    ms = {**base, "transcription": {**base["transcription"], "method": "multiple_shooting"}}
+    constant = {**ms, "transcription": {**ms["transcription"], "control": "constant"}}
+    assert MEMORY.size(ms) == pytest.approx(1.5 * MEMORY.size(constant))
+    settings = Settings(database_url="sqlite://")
+    tr = base["transcription"]
+    unit = cost(base) / (1 + 3) / tr["intervals"]                  # one solve's units per interval
+    near = {**base, "transcription": {**tr, "intervals": int(0.6 * settings.heavy_cost / unit)}}
+    assert cost(near) / 4 < settings.heavy_cost < cost(near)       # its own solve alone would be quick
+    assert quota.queue_for("ocp", quota.estimate_cost("ocp", near), settings) == QUEUE_HEAVY
+    # with accuracy, every round is an answer and its check
+    rounds = {**base, "accuracy": 1e-6, "transcription": {**tr, "max_refinements": 2}}
+    assert cost(rounds) == pytest.approx(3 * cost(base))
 
 
 RESULT = {

@@ -8,20 +8,30 @@ from app.results.tables import columns, columns_at
 
 
 def _size(params: dict) -> float:
-    """RK4 steps (or LGL nodes) x (states + controls)."""
+    """RK4 steps (or LGL nodes) x (states + controls) of the largest NLP the job builds: the answer's check
+    on its mesh with every interval cut in s parts (:func:`check_parts`)."""
     tr = params.get("transcription") or {}
     if tr.get("method", "multiple_shooting") == "multiple_shooting":
         steps = float(tr.get("substeps", 2))
     else:
         steps = float(tr.get("nodes", 4))
     width = float(len(params.get("states") or []) + len(params.get("controls") or []))
-    return float(tr.get("intervals", 50)) * steps * width
+    return float(tr.get("intervals", 50)) * steps * width * check_parts(tr)
 
+
+def check_parts(transcription: dict) -> int:
+    """The parts each interval is cut into for an answer's check solve (``solvers.ocp.estimate.parts_of``,
+    read from the request so the quota needs no solver import): 3 for multiple shooting's linear controls,
+    2 otherwise.  The check's NLP is that many times the answer's, and warm-started it takes about as many
+    iterations (the golden accuracy cases: 7-16 against 8-16), so it costs about s answers."""
+    shooting = transcription.get("method", "multiple_shooting") == "multiple_shooting"
+    return 3 if shooting and transcription.get("control", "linear") == "linear" else 2
 
 # Measured (README "Limits and data"): 215 MB resident in a fresh pool process at a size of 100 intervals x
 # 2 steps x 8 states and controls, 0.0003 MB more per step x (states + controls) past it.
 MEMORY = MemoryModel(floor_mb=215.0, size=_size, floor_size=100.0 * 2 * 8, per_unit_mb=0.0003,
-                     grows_with="transcription.intervals x steps per interval x (states + controls)")
+                     grows_with="transcription.intervals x steps per interval x (states + controls) x the check's "
+                                "parts (3 for multiple shooting's linear controls, 2 otherwise)")
 
 
 def trajectory_table(result: dict) -> dict[str, list] | None:

@@ -17,7 +17,7 @@ from app.kinds.base import (
     Preset,
     RunOutcome,
 )
-from app.kinds.ocp.footprint import MEMORY, compare_series, trajectory_table
+from app.kinds.ocp.footprint import MEMORY, check_parts, compare_series, trajectory_table
 from app.kinds.ocp.headlines import headlines
 from app.kinds.ocp.params import OcpParams
 from app.kinds.ocp.plots import plots
@@ -92,8 +92,10 @@ def key_numbers(result: dict) -> dict:
 
 # One work unit is about one RK4 step of one reentry shooting interval (app.service.quota: the Betts
 # reentry at 100 intervals x 2 substeps costs 200).  That problem written as an ocp (the betts-shuttle-ocp preset: 6 states,
-# 2 controls, ~400 characters of expressions) costs the same: the NLP grows with the integration steps and
-# the states and controls, each step's cost with the size of the expressions.
+# 2 controls, ~400 characters of expressions) costs the same per solve: the NLP grows with the integration
+# steps and the states and controls, each step's cost with the size of the expressions.  An ocp answer is
+# two solves, its own and its check on the finer nested mesh (solvers.ocp.estimate), which the reentry
+# kind does not make: ``cost`` counts both.
 REFERENCE_WIDTH = 8          # states + controls of the reference problem
 REFERENCE_CHARS = 400.0      # characters of its dynamics, expressions, path constraints and integrand
 MIN_CHARS = 100.0            # a tiny problem still costs its NLP's overhead
@@ -118,8 +120,10 @@ def _phase_bodies(params: dict) -> list[dict]:
 
 def cost(params: dict) -> float:
     """Work units: the sum over the phases of intervals x steps per interval x (states + controls) x
-    expression size, scaled to the reference above; times the refinement rounds when ``accuracy`` asks
-    for mesh refinement; times ``search.starts`` (each start a solve)."""
+    expression size, scaled to the reference above; times (1 + s) for the check solve every answer gets on
+    its mesh with every interval cut in s parts (:func:`check_parts`); times the refinement rounds when
+    ``accuracy`` asks for mesh refinement (each round is an answer with its check); times
+    ``search.starts`` (each start a solve)."""
     starts = int(((params.get("search") or {}).get("starts")) or 1)
     return starts * sum(_phase_cost(body) for body in _phase_bodies(params))
 
@@ -132,7 +136,7 @@ def _phase_cost(params: dict) -> float:
     size = max(MIN_CHARS, float(_text_size(params))) / REFERENCE_CHARS
     refine = 1.0 + (float(tr.get("max_refinements", 8)) if params.get("accuracy") else 0.0)
     intervals = len(tr["boundaries"]) - 1 if tr.get("boundaries") else tr.get("intervals", 50)
-    return float(intervals) * steps * width * size * refine
+    return float(intervals) * steps * width * size * refine * (1.0 + check_parts(tr))
 
 
 SPEC = KindSpec(
