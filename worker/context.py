@@ -29,6 +29,8 @@ class WorkerJobContext:
         self.deadline = time.monotonic() + time_limit_s(settings, claim.kind)
         self._progress = 0.0
         self._message: str | None = None
+        self._stage: str | None = None
+        self._round: int | None = None
         self.cancel_requested = False
         self.lost = False
         self._done = threading.Event()
@@ -38,6 +40,11 @@ class WorkerJobContext:
     def progress(self, fraction: float, message: str) -> None:
         self._progress = max(self._progress, min(max(float(fraction), 0.0), 1.0))
         self._message = message
+        # a solve that declares its stages (solvers.progress.ProgressMessage) names the one it is in; any
+        # other message (a kind's own words, a stage-less solver) is in no declared stage
+        stage = getattr(message, "stage", None)
+        self._stage = None if stage is None else str(stage)
+        self._round = getattr(message, "round", None) if stage is not None else None
 
     def should_stop(self) -> bool:
         return self.cancel_requested or self.lost or self.deadline_passed
@@ -94,7 +101,8 @@ class WorkerJobContext:
 
     # --- plumbing ---------------------------------------------------------------------
     def _write(self) -> None:
-        flag = jobs.heartbeat(self.db, self.job_id, self.attempt, progress=self._progress, message=self._message)
+        flag = jobs.heartbeat(self.db, self.job_id, self.attempt, progress=self._progress, message=self._message,
+                              stage=self._stage, stage_round=self._round)
         if flag is None:
             self.lost = True  # another delivery took the job over, or it was finished elsewhere
         else:

@@ -23,6 +23,12 @@ class JobError(BaseModel):
     details: dict[str, Any] | None = Field(default=None, description="Stored diagnostic (solver status, iterations, ...)")
 
 
+class JobStage(BaseModel):
+    name: str = Field(description='The stage, nested stages joined by " / ", e.g. "refinement round 2 / solve"')
+    round: int | None = Field(None, description="The round number of the innermost repeating stage (a limit or "
+                              "refinement round); null for a stage that does not repeat")
+
+
 class JobOut(BaseModel):
     id: str
     kind: str
@@ -31,6 +37,9 @@ class JobOut(BaseModel):
     status: JobStatus
     progress: float = Field(description="Fraction in [0, 1]; only grows while the job runs")
     message: str = Field(description='What the job is doing, e.g. "IPOPT iteration 31", "generation 120/500"')
+    stage: JobStage | None = Field(None, description="The stage the job is in (build, solve, verification, a "
+                                   "limit or refinement round, the Monte Carlo), for a kind that announces its "
+                                   "stages; null before the first")
     created_at: datetime
     started_at: datetime | None
     finished_at: datetime | None

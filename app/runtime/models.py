@@ -49,6 +49,9 @@ class Job(Base):
     status: Mapped[str] = mapped_column(String(16), default="queued")
     progress: Mapped[float] = mapped_column(Float, default=0.0)
     message: Mapped[str] = mapped_column(Text, default="")
+    # the stage the running job announced (solvers.progress) and its round number: the API's ``stage``
+    stage: Mapped[str | None] = mapped_column(String(200))
+    stage_round: Mapped[int | None] = mapped_column(Integer)
     params: Mapped[dict] = mapped_column(JSON)
     error: Mapped[dict | None] = mapped_column(JSON)
     created_at: Mapped[datetime] = mapped_column(DateTime(timezone=True), default=utcnow)

@@ -40,6 +40,7 @@ def _document(job, params) -> dict:
         "status": job.status,
         "progress": job.progress,
         "message": job.message,
+        "stage": None if job.stage is None else {"name": job.stage, "round": job.stage_round},
         "created_at": _iso(job.created_at),
         "started_at": _iso(job.started_at),
         "finished_at": _iso(job.finished_at),

@@ -137,7 +137,8 @@ def _list_statements(*, owner: bool, kind: bool, status: bool):
     conds = _job_filters(owner=bindparam("owner") if owner else None, kind=bindparam("kind") if kind else None,
                          status=bindparam("status") if status else None)
     count = select(func.count()).select_from(Job).where(*conds)
-    q = (select(Job.id, Job.kind, Job.label, Job.preset, Job.status, Job.progress, Job.message, Job.created_at,
+    q = (select(Job.id, Job.kind, Job.label, Job.preset, Job.status, Job.progress, Job.message, Job.stage,
+                Job.stage_round, Job.created_at,
                 Job.started_at, Job.finished_at, cast(Job.params, Text).label("params_json"), Job.error,
                 Job.attempts, count.scalar_subquery().label("total"))
          .where(*conds).order_by(*NEWEST_FIRST).limit(bindparam("limit")).offset(bindparam("offset")))
@@ -280,14 +281,16 @@ def claim(db: Database, job_id: str, attempt: int, *, worker: str, max_attempts:
         job.heartbeat_at = now
         job.worker = worker
         job.message = f"started on {worker} (attempt {job.attempts})"
+        job.stage, job.stage_round = None, None      # an attempt announces its own stages
         return Claim(job.id, job.kind, dict(job.params), job.attempts, request_id=job.request_id,
                      queue_wait_s=queue_wait_s, owner=job.owner,
                      recurring=job.preset is not None or job.study_id is not None)
 
 
-def heartbeat(db: Database, job_id: str, attempt: int, *, progress: float | None, message: str | None) -> bool | None:
-    """Write heartbeat (and progress) for the current token; returns the cancel
-    flag, or None if this delivery no longer owns the job."""
+def heartbeat(db: Database, job_id: str, attempt: int, *, progress: float | None, message: str | None,
+              stage: str | None = None, stage_round: int | None = None) -> bool | None:
+    """Write heartbeat (and progress, and the stage announced with its round) for the current token;
+    returns the cancel flag, or None if this delivery no longer owns the job."""
     with db.write() as s:
         job = s.get(Job, job_id)
         if job is None or job.status != "running" or job.attempts != attempt:
@@ -295,8 +298,9 @@ def heartbeat(db: Database, job_id: str, attempt: int, *, progress: float | None
         job.heartbeat_at = utcnow()
         if progress is not None and progress > job.progress:  # progress only grows
             job.progress = min(float(progress), 1.0)
-        if message is not None:
+        if message is not None:   # the stage goes with its message (None: a message of no declared stage)
             job.message = message[:2000]
+            job.stage, job.stage_round = (None if stage is None else stage[:200]), stage_round
         return bool(job.cancel_requested)
 
 

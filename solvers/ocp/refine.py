@@ -46,6 +46,8 @@ from solvers.common import Outcome
 from solvers.ocp.estimate import METHOD as ESTIMATE_METHOD
 from solvers.ocp.estimate import Estimate, accuracy_block, estimate, halved, parts_of, plan_estimate, same_mesh, union
 from solvers.ocp.problem import OcpProblem, PhaseProblem
+from solvers.ocp.stages import CHECK_PLAN, GRID_PLAN
+from solvers.progress import Progress
 from solvers.ocp.terminal import TERMINAL_TOLERANCE, finer, grid_words
 from solvers.ocp.verify import LIMIT_TOLERANCE
 from solvers.transcription import refine as rf
@@ -188,18 +190,27 @@ class Refinement:
     def __init__(self, solve):
         self.solve, self.problem = solve, solve.problem
         self.trials: list[Trial] = []
+        self.last_stages: Progress = solve.progress     # the stages of the latest round
 
-    def _round(self, problem: OcpProblem, previous, on_progress) -> Trial:
+    def _stages(self) -> Progress:
+        """The stages of the next round: the job's own for the grid as given, refinement round k's
+        (nested) for round k."""
+        k, progress = len(self.trials), self.solve.progress
+        return progress if k == 0 else progress.within("refinement", GRID_PLAN, round=k)
+
+    def _round(self, problem: OcpProblem, previous, progress: Progress | None = None) -> Trial:
         if isinstance(previous, Trial):       # the check's answer is the nearer start, when there is one
             warm = (previous.fine or previous).sol.warm()
         else:
             warm = previous
-        self.trials.append(Trial(self.solve.on_grid(problem, warm, on_progress), problem))
+        self.last_stages = progress or self._stages()
+        self.trials.append(Trial(self.solve.on_grid(problem, warm, self.last_stages), problem))
         return self.trials[-1]
 
-    def check(self, trial: Trial, on_progress=None) -> None:
+    def check(self, trial: Trial, progress: Progress) -> None:
         """The check solve of ``trial`` on its finer nested mesh, warm-started, and its estimate
-        (:mod:`solvers.ocp.estimate`); a check that does not converge leaves the estimate unknown."""
+        (:mod:`solvers.ocp.estimate`), as the ``check`` stage of ``progress`` (the round's stages); a
+        check that does not converge leaves the estimate unknown."""
         stop = self.solve.should_stop
         if not trial.converged or (stop is not None and stop()):
             trial.check_failure = "the answer did not converge" if not trial.converged else "cancelled"
@@ -211,7 +222,7 @@ class Refinement:
         if saved is None and CHECK_IPOPT is not None:
             self.solve.ipopt = CHECK_IPOPT
         try:
-            fine = Trial(self.solve.on_grid(problem, trial.sol.warm(), on_progress), problem)
+            fine = Trial(self.solve.on_grid(problem, trial.sol.warm(), progress.within("check", CHECK_PLAN)), problem)
         finally:
             self.solve.ipopt = saved
         if not fine.converged:
@@ -222,18 +233,17 @@ class Refinement:
 
     def to_accuracy(self):
         """The loop with the accuracy planner; returns the solution to report (module docstring)."""
-        problem, accuracy, progress = self.problem, self.problem.accuracy, self.solve.on_progress
+        problem, accuracy = self.problem, self.problem.accuracy
 
         def solve(meshes, previous):
-            intervals = sum(m.intervals for m in meshes)
-            report = round_progress(progress, len(self.trials), intervals)
+            stages = self._stages()
             fine = previous.fine if isinstance(previous, Trial) else None
             if fine is not None and all(same_mesh(mesh_of(ph.problem), m) for ph, m in zip(fine.problem.phases, meshes)):
                 self.trials.append(fine)          # the plan is the check's mesh: its solve is this round's
                 trial = fine
             else:
-                trial = self._round(on_meshes(problem, meshes), previous, report)
-            self.check(trial, None if report is None else (lambda f, m: report(1.0, "objective error check: " + m)))
+                trial = self._round(on_meshes(problem, meshes), previous, stages)
+            self.check(trial, stages)
             return trial
 
         def accept(trial: Trial) -> bool:
@@ -312,7 +322,7 @@ class Refinement:
         problem, words = self.problem, []
 
         def solve(p, previous):
-            return self._round(p, previous, self.solve.on_progress)
+            return self._round(p, previous)
 
         def plan(p: OcpProblem, trial, history):
             finer_phases = [finer(ph.problem) or ph.problem for ph in p.phases]
@@ -330,8 +340,7 @@ class Refinement:
                         should_stop=self.solve.should_stop, previous=self.solve.initial_guess)
         out.best = out.last      # the last round is the answer here: a terminal miss refined is kept either way
         sol = self._account(out)
-        self.check(out.best, None if self.solve.on_progress is None
-                   else (lambda f, m: self.solve.on_progress(1.0, "objective error check: " + m)))
+        self.check(out.best, self.last_stages)        # within the stages of the round it checks
         sol.solver["accuracy"] = accuracy_block(out.best, None, None)
         if out.best.estimate is not None:
             sol.notes.append(f"objective error estimated at {err_words(out.best.objective_error_estimate)} "
@@ -357,18 +366,6 @@ class Refinement:
             st.build_time_s = sum(t.sol.status.build_time_s for t in self.trials)
             sol.solver.update(iterations=st.iterations, solve_time_s=st.solve_time_s, build_time_s=st.build_time_s)
         return sol
-
-
-def round_progress(progress, k: int, intervals: int):
-    """The job's progress for round ``k``: round 0 fills [0, 1/2], round 1 [1/2, 3/4], ... (the
-    number of rounds is not known ahead), each message prefixed with its round."""
-    if progress is None:
-        return None
-    lo = 1.0 - 0.5**k
-
-    def on_progress(fraction: float, message: str) -> None:
-        progress(lo + 0.5**(k + 1) * fraction, f"refinement round {k} ({intervals} intervals): {message}")
-    return on_progress
 
 
 def _round_of(out) -> int:

@@ -29,10 +29,12 @@ from solvers.ocp.limits import MAX_ROUNDS, Margins, worst_excess
 from solvers.ocp.problem import OcpProblem
 from solvers.ocp.refine import Refinement
 from solvers.ocp.scaling import numbers_of
+from solvers.ocp.stages import PLAN, REFINED_PLAN
 from solvers.ocp.solution import OcpSolution, solution_of
 from solvers.ocp.terminal import TERMINAL_ROUNDS, grid_words
 from solvers.ocp.trajectory import TrajectoryNLP
 from solvers.ocp.violations import INVALID_NUMBER, name_them
+from solvers.progress import Progress
 
 __all__ = ["AGREEMENT_TOLERANCE", "TERMINAL_ROUNDS", "WARM_IPOPT", "OcpSolution", "OcpSolve", "solve"]
 
@@ -92,7 +94,8 @@ class OcpSolve:
                  on_progress: ProgressFn | None = None, should_stop: StopFn | None = None,
                  ipopt: dict | None = None):
         self.problem, self.initial_guess = problem, initial_guess
-        self.on_progress, self.should_stop, self.ipopt = on_progress, should_stop, ipopt
+        self.should_stop, self.ipopt = should_stop, ipopt
+        self.progress = Progress(on_progress, PLAN if problem.accuracy is None else REFINED_PLAN)
 
     def run(self) -> OcpSolution:
         """Refined to ``accuracy`` when the problem asks, else only on a final value missed."""
@@ -101,16 +104,20 @@ class OcpSolve:
             sol = refinement.to_accuracy()
         else:
             sol = refinement.terminal(TERMINAL_ROUNDS)
+        self.progress.stage("answer")
         _judge_optimality(sol)
+        self.progress.done(sol.status.outcome.value)
         return sol
 
     # -- one grid ---------------------------------------------------------------------------------
-    def on_grid(self, problem: OcpProblem, initial_guess: dict | None, on_progress: ProgressFn | None) -> OcpSolution:
-        """Build, solve, check every phase and hold the path limits, on the grid ``problem`` has."""
-        progress = on_progress or (lambda f, m: None)
+    def on_grid(self, problem: OcpProblem, initial_guess: dict | None,
+                progress: Progress | None = None) -> OcpSolution:
+        """Build, solve, check every phase and hold the path limits, on the grid ``problem`` has; each
+        announced as a stage of ``progress`` (a refinement round's nested stages; None: the job's own)."""
+        progress = progress or self.progress
         t_start = time.perf_counter()
         n = len(problem.phases)
-        progress(0.0, "building the NLP" if problem.single else f"building the NLP of {n} phases")
+        progress.stage("build", message="building the NLP" if problem.single else f"building the NLP of {n} phases")
         ipopt = self.ipopt
         if ipopt is None and initial_guess and "start" not in initial_guess:   # a varied start is not near an optimum
             ipopt = WARM_IPOPT
@@ -119,18 +126,17 @@ class OcpSolve:
         build_time = time.perf_counter() - t_start
         assert nlp.solver is not None  # a TrajectoryNLP is built with its solver
         res = nlp.solver.solve(x0=placed.z0, lbx=placed.lbz, ubx=placed.ubz, lbg=placed.lbg, ubg=placed.ubg,
-                               p=placed.p, on_progress=on_progress, should_stop=self.should_stop,
-                               progress_span=(0.02, 0.9))
+                               p=placed.p, on_progress=progress.stage("solve"), should_stop=self.should_stop)
         if res.status.solver_status == INVALID_NUMBER and res.status.iterations <= EARLY_ITERATIONS:
             nlp, placed, res = self.fly_first(problem, nlp, initial_guess, res, progress)
         status = res.status
         first = (status.iterations, status.solve_time_s)
+        progress.stage("verification", message="re-flying the controls")
         checks = self.check(problem, nlp, placed, res)
         rounds: list[dict] = []
         if status.ok and all(c.ok for c in checks) and not all(c.limits_held for c in checks):
-            progress(0.92, "tightening path limits violated between the nodes")
             warm = TrajectoryNLP(problem, ipopt={**(ipopt or {}), **WARM_IPOPT})
-            res, checks, rounds = self.hold_limits(problem, nlp, warm, placed, res, checks)
+            res, checks, rounds = self.hold_limits(problem, nlp, warm, placed, res, checks, progress)
             status = res.status
         status.iterations = first[0] + sum(r["iterations"] for r in rounds)
         status.solve_time_s = first[1] + sum(r["solve_time_s"] for r in rounds)
@@ -138,7 +144,6 @@ class OcpSolve:
         status.details = {**status.details, "limit_rounds": rounds, "solver_cached": nlp.was_cached}
         name_them(status, problem, nlp, checks, placed.nums)     # IPOPT's own failure, by the user's names
         _judge(status, checks, rounds, problem)
-        progress(1.0, status.outcome.value)
         return solution_of(problem, nlp=nlp, res=res, status=status, checks=checks, rounds=rounds)
 
     def fly_first(self, problem: OcpProblem, nlp: TrajectoryNLP, initial_guess: dict | None, res, progress):
@@ -146,7 +151,7 @@ class OcpSolve:
         guess (:mod:`solvers.ocp.flown`), with IPOPT's cold start; ``(nlp, placed, res)`` of that solve,
         or of the first when that overflows too (its message then says what the flight showed)."""
         first = res
-        progress(0.05, "the guess overflowed: flying the dynamics for a better one")
+        progress.stage("solve", message="the guess overflowed: flying the dynamics for a better one")
         cold = TrajectoryNLP(problem, ipopt=self.ipopt)
         flown, notes = flown_guess(problem, cold, initial_guess)
         placed = Placed(problem, cold, flown)
@@ -178,7 +183,7 @@ class OcpSolve:
                                    mult=mult))
         return out
 
-    def hold_limits(self, problem, nlp, warm, placed: Placed, res, checks):
+    def hold_limits(self, problem, nlp, warm, placed: Placed, res, checks, progress: Progress):
         """The tighten-and-re-solve rounds (:mod:`solvers.ocp.limits`): ``(res, checks, rounds)`` of the
         best answer."""
         margins = Margins(placed.path_rows)
@@ -190,7 +195,8 @@ class OcpSolve:
             lbg, ubg = margins.tighten(checks, placed.lbg, placed.ubg)
             r = warm.solver.solve(x0=res.x, lbx=placed.lbz, ubx=placed.ubz, lbg=lbg, ubg=ubg, p=placed.p,
                                   lam_x0=res.lam_x, lam_g0=res.lam_g, should_stop=self.should_stop,
-                                  expected_iterations=15, label=f"limit round {k}")
+                                  expected_iterations=15, label=f"limit round {k}",
+                                  on_progress=progress.stage("limit", round=k))
             rounds.append({"round": k, "status": r.status.solver_status, "iterations": r.status.iterations,
                            "solve_time_s": r.status.solve_time_s, **margins.words()})
             if not r.status.ok:

@@ -144,9 +144,10 @@ def path_limits(problem) -> list[Limit]:
 
 
 def hold_problem_limits(problem, tr, res, ver, *, p, param_vector, limits, verify, bounds, stages,
-                        on_progress, should_stop):
+                        progress, should_stop):
     """:func:`hold_limits` for a :class:`solvers.reentry.ReentryProblem` solved on transcription
-    ``tr`` with parameters ``p`` (``param_vector(problem)``); appends a stage per round."""
+    ``tr`` with parameters ``p`` (``param_vector(problem)``); appends a stage per round, and announces
+    each as a round of ``progress``'s ``limit`` stage (:mod:`solvers.progress`)."""
     x_lb, x_ub, u_lb, u_ub = bounds
     integral = problem.path_enforcement == "integral"
 
@@ -157,11 +158,11 @@ def hold_problem_limits(problem, tr, res, ver, *, p, param_vector, limits, verif
             low = {f"max_{lim.quantity}": lim.value * (1.0 - float(margins[lim.constraint].max()))
                    for lim in limits}
             pp, mg = param_vector(dataclasses.replace(problem, **low)), None
+        k = 1 + sum(s["stage"].startswith("limit round") for s in stages)
         r = tr.solve(p=pp, x_lb=x_lb, x_ub=x_ub, u_lb=u_lb, u_ub=u_ub, tf_bounds=problem.tf_bounds_s,
                      guess=(prev.tf, prev.x, prev.u), warm=prev, path_margins=mg,
-                     on_progress=on_progress, should_stop=should_stop, progress_span=(0.95, 0.99),
+                     on_progress=progress.stage("limit", round=k), should_stop=should_stop,
                      expected_iterations=10)
-        k = 1 + sum(s["stage"].startswith("limit round") for s in stages)
         stages.append({"stage": f"limit round {k}", "status": r.status.solver_status,
                        "iterations": r.status.iterations, "solve_time_s": r.status.solve_time_s})
         return r

@@ -33,6 +33,8 @@ import numpy as np
 from solvers.common import Outcome
 from solvers.models.reentry_state import NU, NX, X_SCALE
 from solvers.reentry.shooting import param_vector, shooting_problem
+from solvers.reentry.stages import GRID_PLAN, PLAN
+from solvers.progress import Progress
 from solvers.transcription import refine as rf
 
 MAX_INTERVALS = 1000        # the service's default max_grid_intervals
@@ -103,9 +105,10 @@ def solve(problem, *, initial_guess=None, on_progress=None, should_stop=None, se
     from solvers.reentry import solver as base
     from solvers.reentry.guess import InitialGuess
 
-    kw = {"on_progress": on_progress, "should_stop": should_stop}
     if problem.accuracy is None:
-        return base.solve(problem, initial_guess=initial_guess, seed=seed, **kw)
+        return base.solve(problem, initial_guess=initial_guess, seed=seed, on_progress=on_progress,
+                          should_stop=should_stop)
+    progress = Progress(on_progress, PLAN)
     trials: list[Trial] = []
 
     def solve_on(m, previous):
@@ -113,7 +116,10 @@ def solve(problem, *, initial_guess=None, on_progress=None, should_stop=None, se
         p = dataclasses.replace(problem, intervals=int(m), terminal_rounds=0)
         guess = initial_guess if not isinstance(previous, Trial) else InitialGuess(
             t=previous.sol.t, x=previous.sol.x, u=previous.sol.u_nodes_at_t)
-        trials.append(Trial(base.solve(p, initial_guess=guess, **kw), p))
+        # round 0 (the grid as given) on the job's own stages, round k inside refinement round k's share
+        k = len(trials)
+        stages = progress.within("refinement", GRID_PLAN, round=k) if k else progress
+        trials.append(Trial(base.solve(p, initial_guess=guess, on_progress=stages, should_stop=should_stop), p))
         return trials[-1]
 
     def accept(trial):
@@ -133,7 +139,10 @@ def solve(problem, *, initial_guess=None, on_progress=None, should_stop=None, se
     elif out.stopped == "cancelled":         # asked to stop between two rounds
         out.best.sol.status.outcome = Outcome.CANCELLED
         out.best.sol.status.message = "cancelled between mesh-refinement rounds"
-    return _report(problem, out, trials)
+    progress.stage("answer")
+    sol = _report(problem, out, trials)
+    progress.done(sol.status.outcome.value)
+    return sol
 
 
 def _report(problem, out, trials):

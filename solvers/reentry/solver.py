@@ -35,6 +35,8 @@ from solvers.reentry.certificate import certified_infeasible, infeasible_before_
 from solvers.reentry.minmax import classify_by_least_peak, coarse_least_peak
 from solvers.reentry.problem import ReentryProblem, ReentrySolution
 from solvers.reentry.shooting import param_vector, shooting_problem, state_bounds
+from solvers.reentry.stages import PLAN, ROUND_PLAN
+from solvers.progress import Progress
 from solvers.verification import Verification, propagate_dense
 
 def objective_value(problem: ReentryProblem, tf: float, x: np.ndarray, u_nodes: np.ndarray,
@@ -87,13 +89,17 @@ def _physical_violation(problem: ReentryProblem, tr: Transcription, res) -> str:
 
 
 def solve(problem: ReentryProblem, *, initial_guess: InitialGuess | str | None = None,
-          on_progress: ProgressFn | None = None, should_stop: StopFn | None = None,
+          on_progress: ProgressFn | Progress | None = None, should_stop: StopFn | None = None,
           seed=None) -> ReentrySolution:  # seed unused: deterministic
     """Solve one reentry problem. ``initial_guess``: an :class:`InitialGuess` (warm start, any
-    grid), ``"linear"``, ``"simulate"`` or None (the default: simulate)."""
+    grid), ``"linear"``, ``"simulate"`` or None (the default: simulate).  ``on_progress``: the job's
+    callback, or the nested stages of a refinement round (:mod:`solvers.progress`)."""
     m = problem.intervals
     notes: list[str] = []
     stages: list[dict] = []
+    # a refinement round hands in its own nested stages; a job's own solve declares the whole plan
+    own = not isinstance(on_progress, Progress)
+    progress = on_progress if isinstance(on_progress, Progress) else Progress(on_progress, PLAN)
     has_path = any(v is not None for v in (problem.max_heat_rate_w_m2,
                                            problem.max_dynamic_pressure_pa, problem.max_load_factor))
     if isinstance(initial_guess, InitialGuess):
@@ -114,6 +120,7 @@ def solve(problem: ReentryProblem, *, initial_guess: InitialGuess | str | None =
         # A limit both ends keep but no flight between can: the least peak on coarse grids
         # (solvers.reentry.minmax) decides in seconds what the limited NLP took ~50 s to fail.
         # Skipped on warm starts (refinement rounds, a job's answer): their problem was judged already.
+        progress.stage("least peak", message="the least peak heating rate any control gives")
         cert = coarse_least_peak(problem, guess, should_stop=should_stop)
         if cert is not None:
             stages += [{"stage": f"least peak heating, {g['intervals']} intervals", "status": g["status"],
@@ -130,17 +137,15 @@ def solve(problem: ReentryProblem, *, initial_guess: InitialGuess | str | None =
     p = param_vector(problem)
     x_lb, x_ub, u_lb, u_ub = state_bounds(problem, m)
     build_time = 0.0
-    spans = [(0.0, 0.95)]
     warm_internally = has_path and not isinstance(initial_guess, InitialGuess)
     if warm_internally:
         # Pitfall seen (spec): the heat-limited case converges badly from a cold guess; solve the
         # unconstrained problem first and start the constrained one from it.
-        spans = [(0.0, 0.45), (0.45, 0.95)]
         tr0 = Transcription(shooting_problem(problem, with_path=False))
         build_time += 0.0 if tr0.was_cached else tr0.solver.build_time_s
         r0 = tr0.solve(p=p, x_lb=x_lb, x_ub=x_ub, u_lb=u_lb, u_ub=u_ub,
                        tf_bounds=problem.tf_bounds_s, guess=on_grid(guess, m, problem.control),
-                       on_progress=on_progress, should_stop=should_stop, progress_span=spans[0],
+                       on_progress=progress.stage("solve without path limits"), should_stop=should_stop,
                        expected_iterations=40)
         stages.append({"stage": "without path limits", "status": r0.status.solver_status,
                        "iterations": r0.status.iterations, "solve_time_s": r0.status.solve_time_s})
@@ -156,16 +161,19 @@ def solve(problem: ReentryProblem, *, initial_guess: InitialGuess | str | None =
         problem = dataclasses.replace(problem, ipopt={**WARM_IPOPT, **problem.ipopt})
     timer = {"s": 0.0, "build": build_time}
     run = functools.partial(_solve_held, p=p, bounds=(x_lb, x_ub, u_lb, u_ub), stages=stages, timer=timer,
-                            on_progress=on_progress, should_stop=should_stop)
-    tr, res, ver, report = run(problem, on_grid(guess, m, problem.control), "full problem", spans[-1])
+                            should_stop=should_stop)
+    tr, res, ver, report = run(problem, on_grid(guess, m, problem.control), "full problem", progress)
     terminal = None
     if ver is not None:
-        problem, tr, res, ver, report, terminal = _hold_terminal(problem, tr, res, ver, report, run)
+        problem, tr, res, ver, report, terminal = _hold_terminal(problem, tr, res, ver, report, run, progress)
     sol = _solution(problem, tr, res, timer["build"], notes, stages, ver=ver, report=report,
                     terminal=terminal, verification_time_s=timer["s"])
     if sol.status.outcome is Outcome.NOT_CONVERGED and problem.max_heat_rate_w_m2 is not None:
         classify_by_least_peak(problem, sol, sp=shooting_problem(problem), p=p, bounds=(x_lb, x_ub, u_lb, u_ub),
                                guess=on_grid(guess, m, problem.control), should_stop=should_stop)
+    if own:
+        progress.stage("answer")
+        progress.done(sol.status.outcome.value)
     return sol
 
 
@@ -186,14 +194,14 @@ def _least_peak_infeasible(problem, guess, cert, stages) -> ReentrySolution:
 WARM_IPOPT = {"mu_strategy": "monotone", "mu_init": 1e-3}
 
 
-def _solve_held(problem, guess, stage, span, *, p, bounds, stages, timer, on_progress, should_stop):
-    """One solve of ``problem`` from ``guess`` (on its grid), verified and its path limits held:
-    ``(transcription, result, verification or None, limit report or None)``."""
+def _solve_held(problem, guess, stage, progress: Progress, *, p, bounds, stages, timer, should_stop):
+    """One solve of ``problem`` from ``guess`` (on its grid), verified and its path limits held, each
+    a stage of ``progress``: ``(transcription, result, verification or None, limit report or None)``."""
     x_lb, x_ub, u_lb, u_ub = bounds
     tr = Transcription(shooting_problem(problem))
     timer["build"] += 0.0 if tr.was_cached else tr.solver.build_time_s
     res = tr.solve(p=p, x_lb=x_lb, x_ub=x_ub, u_lb=u_lb, u_ub=u_ub, tf_bounds=problem.tf_bounds_s,
-                   guess=guess, on_progress=on_progress, should_stop=should_stop, progress_span=span,
+                   guess=guess, on_progress=progress.stage("solve"), should_stop=should_stop,
                    expected_iterations=40)
     stages.append({"stage": stage, "status": res.status.solver_status,
                    "iterations": res.status.iterations, "solve_time_s": res.status.solve_time_s})
@@ -204,6 +212,7 @@ def _solve_held(problem, guess, stage, span, *, p, bounds, stages, timer, on_pro
             out = _verify(problem, tr, r, p)
             timer["s"] += time.perf_counter() - t0
             return out
+        progress.stage("verification", message="the dense re-propagation")
         ver = verify(res)
         limits = path_limits(problem)
         if limits and problem.limit_tolerance is None:
@@ -211,11 +220,11 @@ def _solve_held(problem, guess, stage, span, *, p, bounds, stages, timer, on_pro
         elif limits:
             res, ver, report = hold_problem_limits(
                 problem, tr, res, ver, p=p, param_vector=param_vector, limits=limits, verify=verify,
-                bounds=bounds, stages=stages, on_progress=on_progress, should_stop=should_stop)
+                bounds=bounds, stages=stages, progress=progress, should_stop=should_stop)
     return tr, res, ver, report
 
 
-def _hold_terminal(problem, tr, res, ver, report, run):
+def _hold_terminal(problem, tr, res, ver, report, run, progress: Progress):
     """Terminal conditions that hold (:mod:`solvers.reentry.terminal`): re-solve with more substeps,
     warm from the previous answer on the same grid, until the re-propagated final state meets every
     requested value; returns the best round's ``(problem, tr, res, ver, report, rounds)``."""
@@ -234,7 +243,9 @@ def _hold_terminal(problem, tr, res, ver, report, run):
             break
         problem = dataclasses.replace(problem, substeps=n, ipopt={**WARM_IPOPT, **problem.ipopt})
         guess = (res.tf, res.x, res.u)
-        tr, res, ver, report = run(problem, guess, f"terminal round {len(rounds)} ({n} substeps)", (0.95, 0.99))
+        k = len(rounds)
+        tr, res, ver, report = run(problem, guess, f"terminal round {k} ({n} substeps)",
+                                   progress.within("terminal", ROUND_PLAN, round=k))
         if ver is None:
             break
         ver.terminal = term.terminal_checks(requested, ver, tol)

@@ -39,6 +39,7 @@ def state_id(job: Job) -> str:
 def event_of(job: Job) -> ServerSentEvent:
     final = job.status in FINAL_STATUSES
     data = {"id": job.id, "status": job.status, "progress": job.progress, "message": job.message,
+            "stage": None if job.stage is None else {"name": job.stage, "round": job.stage_round},
             "attempts": job.attempts, "error": job.error}
     return ServerSentEvent(event="end" if final else "progress", id=state_id(job), data=data, retry=RETRY_MS)
 

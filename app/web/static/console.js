@@ -378,7 +378,10 @@ const Console = (() => {
     text(st, d.status);
     $("#bar").style.width = pct(d.progress);
     text($("#progress-text"), pct(d.progress));
-    text($("#message"), d.message);
+    // the stage and its round (a kind that announces them): "refinement round 2 / solve"
+    text($("#stage"), d.stage ? `stage: ${d.stage.name}` : "");
+    const head = d.stage ? `${d.stage.name}: ` : null;   // the message repeats its stage for plain readers
+    text($("#message"), head && d.message.startsWith(head) ? d.message.slice(head.length) : d.message);
     $("#cancel").hidden = FINAL.includes(d.status);
     if (d.error) text($("#error"), `${d.error.code}: ${d.error.message}`);
   }
