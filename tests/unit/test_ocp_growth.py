@@ -13,6 +13,7 @@ import math
 import re
 
 from app.kinds.ocp import OcpParams, run
+from app.kinds.ocp.headlines import headlines
 from solvers.common import Outcome
 from solvers.ocp import PRESETS, parse_problem, solve
 from solvers.ocp.growth import FROM_T0, INTERVALS, MIN_EXPONENT, NOISE, Growth
@@ -73,6 +74,9 @@ def test_an_amplifying_problem_that_fails_is_advised_by_its_own_fields_with_the_
     advice = outcome.error["details"]["advice"]
     assert "amplify errors by about e^40" in advice[0] and "interval by interval" in advice[0], advice
     assert not any(FOREIGN.search(line) for line in advice), advice
+    # the headline says which re-flight it was
+    names = [h.name for h in headlines(outcome.result, body)]
+    assert "re-flight interval by interval" in names and "re-flight" not in names, names
 
 
 def test_every_phase_of_an_amplifying_problem_is_verified_interval_by_interval():

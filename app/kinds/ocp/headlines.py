@@ -1,6 +1,7 @@
 """The ``ocp`` kind's headline numbers (app.kinds.headlines): the objective as the problem wrote it
 (sense and expression, with the unit when the expression is a state or the final time), and whether the
-dense re-flight kept every limit and met every terminal condition."""
+dense re-flight kept every limit and met every terminal condition (a re-flight interval by interval, for
+dynamics that amplify errors, says so)."""
 from __future__ import annotations
 
 from app.kinds.headlines import Headline, number, terminal_headline, verdict
@@ -49,6 +50,8 @@ def headlines(result: dict, params: dict | None = None) -> list[Headline]:
                            detail=optimality.get("message") or "",
                            words=("verified", f"not verified: {', '.join(failed)}")))
     if isinstance(v.get("agrees"), bool):
-        out.append(verdict("re-flight", held=v["agrees"], value=v.get("max_state_difference_scaled_overall"),
+        # dynamics that amplify errors: each interval flown from its own node (solvers/ocp/growth.py)
+        label = "re-flight interval by interval" if v.get("mode") == "interval_by_interval" else "re-flight"
+        out.append(verdict(label, held=v["agrees"], value=v.get("max_state_difference_scaled_overall"),
                            unit="", detail=v.get("message") or "", words=("agrees", "disagrees")))
     return out
