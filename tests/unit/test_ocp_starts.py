@@ -74,6 +74,9 @@ def test_the_default_guess_finds_the_worse_optimum_and_five_starts_the_better():
     assert [e["start"] for e in search["each"]] == list(range(5))
     assert search["each"][0]["objective"] == pytest.approx(worse, rel=1e-6)     # start 0 is the given guess
     assert result["notes"][0].startswith("best of 5 starts")
+    from app.kinds.ocp.headlines import headlines
+    texts = [h.text for h in headlines(result, {**WELL, "search": {"starts": 5}})]
+    assert f"starts: best of 5 (start {search['best_start']}), 5 succeeded, 2 distinct optima" in texts, texts
 
 
 def test_the_starts_are_deterministic_and_spread_the_controls_over_their_bounds():

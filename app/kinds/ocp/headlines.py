@@ -49,6 +49,12 @@ def headlines(result: dict, params: dict | None = None) -> list[Headline]:
         out.append(verdict("optimality", held=optimality["held"], value=None, unit="",
                            detail=optimality.get("message") or "",
                            words=("verified", f"not verified: {', '.join(failed)}")))
+    search = result.get("search")
+    if isinstance(search, dict):      # several starts: how many found what
+        optima = search.get("distinct_optima") or []
+        out.append(Headline(name="starts", value=search.get("succeeded"), text=(
+            f"starts: best of {search.get('starts')} (start {search.get('best_start')}), {search.get('succeeded')} "
+            f"succeeded, {len(optima)} distinct optim{'um' if len(optima) == 1 else 'a'}")))
     if isinstance(v.get("agrees"), bool):
         # dynamics that amplify errors: each interval flown from its own node (solvers/ocp/growth.py)
         label = "re-flight interval by interval" if v.get("mode") == "interval_by_interval" else "re-flight"
