@@ -50,5 +50,7 @@ class OcpRobustResult(ResultModel):
                                "where the Monte Carlo kept less than promised)")
     sigma_factor: Num = Field(None, description="The Monte Carlo's sigmas over the design's")
     rounds: list[dict[str, Any]] = Field(default_factory=list, description="Each design and its Monte Carlo")
+    distribution: dict[str, Any] | None = Field(None, description="A Monte Carlo fanned across the workers: its "
+                                                "chunks, their size and who computed them")
     timing: dict[str, Any] = Field(default_factory=dict, description="Seconds: deterministic twin, robust NLP, "
                                    "Monte Carlo; iterations")

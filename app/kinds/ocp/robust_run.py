@@ -25,11 +25,13 @@ def run_robust(params: OcpParams, ctx: JobContext, *, guess: dict | None, t_star
         ctx.progress(0.9, f"Monte Carlo of the design ({samples} samples)")
         return ctx.run_monte_carlo(spec, samples, seed, CHUNK_SIZE)
 
-    rs, block, _ = design_and_confirm(problem, params=parser_data(params), run_monte_carlo=monte_carlo, seed=SEED,
+    rs, block, summary = design_and_confirm(problem, params=parser_data(params), run_monte_carlo=monte_carlo, seed=SEED,
                                       initial_guess=guess, on_progress=ctx.progress, should_stop=ctx.should_stop)
     result = build_result(rs.solution, params, wall_time_s=time.perf_counter() - t_start, warm_start=None)
     if block is None:
         return outcome_from_status(rs.solution.status, result)
+    if summary is not None and "distribution" in summary:    # which workers computed which chunks
+        block["distribution"] = summary["distribution"]
     result["robust"] = json_value(block)
     outcome = outcome_from_status(rs.solution.status, result)
     if outcome.status != "succeeded" or block["confirmed"]:
