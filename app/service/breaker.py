@@ -16,8 +16,8 @@ A monitor thread PINGs Redis every ``interval_s`` with a reply bound of ``timeou
 notices a silent loss within ``interval_s + timeout_s`` even when no request has touched Redis (and says so
 in the log); while open it is the probe that closes the breaker when Redis answers again, and then runs
 the callbacks registered with :meth:`BrokerBreaker.on_close` (the publisher sends what it kept).  The
-monitor stops after ``IDLE_STOP_S`` of closed state without a caller (a test's app that is gone, an idle
-process) and starts again on the next use.
+monitor stops after ``IDLE_STOP_S`` without a caller (a test's app that is gone, an idle process; the
+publisher asks every probe interval while it keeps jobs) and starts again on the next use.
 
 The API's monitor PINGs every ``TRAJLAB_BROKER_PROBE_INTERVAL_S`` with ``TRAJLAB_BROKER_PROBE_TIMEOUT_S``;
 a worker's (worker.broker_watch) every third of ``TRAJLAB_REDIS_HEALTH_CHECK_INTERVAL_S`` with the same
@@ -184,7 +184,7 @@ class BrokerBreaker:
             self._wake.wait(self.interval_s)
             self._wake.clear()
             idle = time.monotonic() - self._last_use > IDLE_STOP_S
-            if self._open_since is None and idle and not self._watching:
+            if idle and not self._watching:  # open or not: the next caller starts it again
                 with self._lock:
                     self._monitor = None
                 return

@@ -148,60 +148,66 @@ def test_an_api_and_a_worker_silently_cut_from_redis(cut_hosts):
         stack.wait_ready()
         # ready: the database, the broker and the worker's recovery heartbeat (its start is no part of this)
         wait_serving(f"{base}/readyz", proc=api, what="trajlab api", log=api_log, status=200)
+        # a client (its kept-alive connection) per phase: uvicorn closes a connection idle for 5 s, and a request
+        # sent on it as it closes is reset, which no fix of ours is about
+        ready_before: list[int] = []
         with httpx.Client(base_url=base, timeout=120) as client:
-            ready_before: list[int] = []
-            before = _burst(client, cancelled=cancelled, accepted=accepted, studies=studies, ready_codes=ready_before)
-            deadline = time.monotonic() + 300  # the worker takes the next job at once: nothing queued before it
-            while any(status not in FINAL for status, _ in _rows(stack, accepted + _study_points(stack, studies)).values()):
-                assert time.monotonic() < deadline, "the jobs of the burst before the cut did not end"
-                time.sleep(0.1)
-            running = client.post("/v1/jobs", json=RUNNING).json()["id"]
-            accepted.append(running)
-            deadline = time.monotonic() + 300
-            while _rows(stack, [running])[running][0] != "running":
-                assert time.monotonic() < deadline, "the job meant to run through the cut never started"
-                time.sleep(0.05)
-            worker_log_at = len(worker_log.read_text(errors="replace"))
-            cut_at = hosts["api"].cut(API_REDIS)
-            hosts["w"].cut(W_REDIS)
-            noticed: list[float] = []
+            before = _burst(client, cancelled=cancelled, accepted=accepted, studies=studies,
+                            ready_codes=ready_before)
+        deadline = time.monotonic() + 300  # the worker takes the next job at once: nothing queued before it
+        while any(status not in FINAL for status, _ in _rows(stack, accepted + _study_points(stack, studies)).values()):
+            assert time.monotonic() < deadline, "the jobs of the burst before the cut did not end"
+            time.sleep(0.1)
+        running = httpx.post(f"{base}/v1/jobs", json=RUNNING, timeout=120).json()["id"]
+        accepted.append(running)
+        deadline = time.monotonic() + 300
+        while _rows(stack, [running])[running][0] != "running":
+            assert time.monotonic() < deadline, "the job meant to run through the cut never started"
+            time.sleep(0.05)
+        worker_log_at = len(worker_log.read_text(errors="replace"))
+        cut_at = hosts["api"].cut(API_REDIS)
+        hosts["w"].cut(W_REDIS)
+        noticed: list[float] = []
 
-            def watch_worker_log() -> None:
-                while time.monotonic() - cut_at < 120 and not noticed:
-                    if _first_line(worker_log, "broker unreachable", worker_log_at):
-                        noticed.append(time.monotonic() - cut_at)
-                    time.sleep(0.1)
-            watcher = threading.Thread(target=watch_worker_log)
-            watcher.start()
-            ready_during: list[int] = []
-            during = _burst(client, cancelled=cancelled, accepted=accepted, studies=studies, ready_codes=ready_during)
-            watcher.join()
-            # the run through the cut ends (its result goes to PostgreSQL, reachable) and its metrics wait
-            deadline = time.monotonic() + 300
-            while _rows(stack, [running])[running][0] not in FINAL:
-                assert time.monotonic() < deadline, "the job running through the cut did not end"
+        def watch_worker_log() -> None:
+            while time.monotonic() - cut_at < 120 and not noticed:
+                if _first_line(worker_log, "broker unreachable", worker_log_at):
+                    noticed.append(time.monotonic() - cut_at)
                 time.sleep(0.1)
-            readyz_cut = client.get("/readyz").json()
-            cut_s = time.monotonic() - cut_at
-            restored_at = hosts["api"].restore(API_REDIS)
-            hosts["w"].restore(W_REDIS)
-            ids = accepted + _study_points(stack, studies)
-            deadline = time.monotonic() + 300
-            while True:  # every job final and every one published (the worker's runs take their time)
-                rows = _rows(stack, ids)
-                if all(status in FINAL and published is not None for status, published in rows.values()):
-                    break
-                assert time.monotonic() < deadline, {j: r for j, r in rows.items()
-                                                     if r[0] not in FINAL or r[1] is None}
-                time.sleep(0.25)
-            settled_s = time.monotonic() - restored_at
+        watcher = threading.Thread(target=watch_worker_log)
+        watcher.start()
+        ready_during: list[int] = []
+        with httpx.Client(base_url=base, timeout=120) as client:
+            during = _burst(client, cancelled=cancelled, accepted=accepted, studies=studies,
+                            ready_codes=ready_during)
+        watcher.join()
+        # the run through the cut ends (its result goes to PostgreSQL, reachable) and its metrics wait
+        deadline = time.monotonic() + 300
+        while _rows(stack, [running])[running][0] not in FINAL:
+            assert time.monotonic() < deadline, "the job running through the cut did not end"
+            time.sleep(0.1)
+        readyz_cut = httpx.get(f"{base}/readyz", timeout=120).json()
+        cut_s = time.monotonic() - cut_at
+        restored_at = hosts["api"].restore(API_REDIS)
+        hosts["w"].restore(W_REDIS)
+        ids = accepted + _study_points(stack, studies)
+        deadline = time.monotonic() + 300
+        while True:  # every job final and every one published (the worker's runs take their time)
+            rows = _rows(stack, ids)
+            if all(status in FINAL and published is not None for status, published in rows.values()):
+                break
+            assert time.monotonic() < deadline, {j: r for j, r in rows.items()
+                                                 if r[0] not in FINAL or r[1] is None}
+            time.sleep(0.25)
+        settled_s = time.monotonic() - restored_at
     finally:
         stop_group(api)
     stored_runs = worker_log.read_text(errors="replace").count(" stored: ")
     r = redis_lib.Redis.from_url(stack.redis.url)
-    deadline = time.monotonic() + 60  # the worker's buffer retries every 2 s
+    deadline = time.monotonic() + 60  # the worker's buffer retries every 2 s (asserted below, after the report)
     while int(r.hget(PREFIX + "job_duration_seconds", "intercept|count") or 0) < stored_runs:
-        assert time.monotonic() < deadline, (r.hgetall(PREFIX + "job_duration_seconds"), stored_runs)
+        if time.monotonic() > deadline:
+            break
         time.sleep(0.25)
     recorded = int(r.hget(PREFIX + "job_duration_seconds", "intercept|count") or 0)
     # a cancelled job had maybe finished already (the worker is quick before the cut)

@@ -92,6 +92,14 @@ def test_readyz_names_the_unreachable_broker(client):
     assert body["recovery"].startswith("never ran")
 
 
+def test_metrics_without_a_broker_are_the_database_families(client):
+    """A scrape while the broker is unreachable is a 200 without the broker's families (issue 36: it was a
+    500 after waiting out the Redis timeouts)."""
+    r = client.get("/metrics")
+    assert r.status_code == 200, r.text
+    assert "trajlab_jobs_submitted" in r.text and "trajlab_queue_depth" not in r.text
+
+
 def test_list_offset_beyond_64_bits_is_422_not_500(client):
     """Found by schemathesis: an OFFSET past 2**63 overflowed the database driver."""
     assert client.get("/v1/jobs", params={"offset": 2**63}).status_code == 422
