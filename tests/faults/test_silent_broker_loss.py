@@ -13,7 +13,7 @@ and its reads, /readyz, /metrics), after the same burst before the cut.  Then
 * ``/readyz`` says the broker is down during the cut, at once;
 * the worker logged the loss within the health-check interval the README states (10 s);
 * once the links are back, no accepted job is lost (each succeeded, or is cancelled because the burst
-  cancelled it), every job and study point has ``published_at`` set, and the metrics of the job that
+  cancelled it), every job and study point not cancelled has ``published_at`` set, and the metrics of the job that
   finished during the cut reached Redis: the duration histogram counts exactly the runs the worker stored.
 
 The figures are printed (``pytest -s``).  Root only (``ip netns``).
@@ -192,12 +192,13 @@ def test_an_api_and_a_worker_silently_cut_from_redis(cut_hosts):
         hosts["w"].restore(W_REDIS)
         ids = accepted + _study_points(stack, studies)
         deadline = time.monotonic() + 300
-        while True:  # every job final and every one published (the worker's runs take their time)
+        while True:  # every job final and every one published (asserted below, after the report)
             rows = _rows(stack, ids)
-            if all(status in FINAL and published is not None for status, published in rows.values()):
+            if all(status in FINAL and (published is not None or status == "cancelled")
+                   for status, published in rows.values()):
                 break
-            assert time.monotonic() < deadline, {j: r for j, r in rows.items()
-                                                 if r[0] not in FINAL or r[1] is None}
+            if time.monotonic() > deadline:
+                break
             time.sleep(0.25)
         settled_s = time.monotonic() - restored_at
     finally:
@@ -215,14 +216,17 @@ def test_an_api_and_a_worker_silently_cut_from_redis(cut_hosts):
             if not (status == "succeeded" or (status == "cancelled" and j in cancelled))]
     all_before = [t for ts in before.values() for t in ts]
     all_during = [t for ts in during.values() for t in ts]
+    # a job cancelled while it waited for the broker is never sent: its published_at stays empty, truly
+    unpublished = [j for j, (status, published) in rows.items() if published is None and status != "cancelled"]
     ms = lambda seconds: f"{seconds * 1000:.0f}ms"  # noqa: E731
     report("silent-redis-cut-api-and-worker", requests=len(all_during), median_before=ms(statistics.median(all_before)),
            p99_before=ms(_p(all_before, 0.99)), median_cut=ms(statistics.median(all_during)),
            p99_cut=ms(_p(all_during, 0.99)), max_cut=ms(max(all_during)),
            slowest_route=max(during, key=lambda k: max(during[k])), worker_noticed_s=noticed[0] if noticed else -1.0,
-           jobs=len(ids), lost=len(lost), metrics_recorded=recorded, runs_stored=stored_runs, cut_s=cut_s,
+           jobs=len(ids), lost=len(lost), unpublished=len(unpublished), metrics_recorded=recorded, runs_stored=stored_runs, cut_s=cut_s,
            settled_after_restore_s=settled_s)
     assert not lost, [rows[j] for j in lost[:3]]
+    assert not unpublished, [rows[j] for j in unpublished[:3]]
     # the API: no route waits on the lost broker (the margin: the module docstring)
     assert _p(all_during, 0.99) < P99_BOUND_S + _p(all_before, 0.99), {k: max(v) for k, v in during.items()}
     assert set(ready_before) == {200} and readyz_cut["broker"] == "down", readyz_cut
