@@ -89,6 +89,9 @@ def parse_problem(params: dict, limits: OcpLimits = DEFAULT_LIMITS) -> OcpProble
 def _robust(params: dict, one: PhaseProblem, limits: OcpLimits):
     """``uncertainty`` and ``robust`` (:mod:`solvers.ocp.robust.spec`) of a problem posed as one phase."""
     ph, obj = one.phase, one.objective
+    if ph.transcription.method != "multiple_shooting" and (params.get("uncertainty") or params.get("robust")):
+        raise OcpInputError("params.transcription.method", "robust design is transcribed by multiple shooting "
+                                                           "only (LGL is not done yet, issue 37)")
     trees = [*ph.dynamics, *(e for _, e in ph.expressions), *(c.expr for c in ph.path),
              *(c.expr for c in ph.boundary), *(e for e in (obj.expr, obj.integrand) if e is not None)]
     return parse_robust(params, constants=dict(one.constants), states=ph.state_names, trees=trees,
