@@ -29,6 +29,10 @@ best of ``--reps``; this machine's 2 shared cores make single runs noisy.
   brachistochrone and the Betts shuttle refined to 1e-6 from a coarse grid against the smallest
   uniform grid that reaches 1e-6: rounds, intervals, error, iterations, time.
 
+* **accuracy** (``--accuracy PRESETS``, off by default; :mod:`benchmarks.ocp_accuracy`): per preset with a
+  published optimum, the objective error against it and the wall time of ``accuracy`` 1e-4 and 1e-6 (every
+  round's check solve counted) against the smallest uniform grid reaching the same objective error.
+
 * **Dymos** 1.15.1 (``--dymos gl,radau``, off by default: on this machine Radau takes minutes on
   Goddard): Gauss-Lobatto and Radau on the same number of segments, IPOPT through cyipopt in
   place of SLSQP (``benchmarks.ocp_dymos``; pyOptSparse has no wheel here; cyipopt builds against
@@ -333,6 +337,8 @@ def main() -> int:
     ap.add_argument("--dymos", default="", help="Dymos transcriptions to run: gl, radau or gl,radau")
     ap.add_argument("--no-refinement", dest="refinement", action="store_false",
                     help="leave out the mesh-refinement row (benchmarks.ocp_refine)")
+    ap.add_argument("--accuracy", default="", help="presets with a published optimum for the accuracy row "
+                    "(benchmarks.ocp_accuracy; e.g. lunar-lander-bang-bang,scalar-lq-riccati,bryson-denham)")
     ap.add_argument("--no-save", dest="save", action="store_false",
                     help="do not merge the figures into benchmarks/results/latest.json")
     args = ap.parse_args()
@@ -371,6 +377,9 @@ def main() -> int:
     if args.refinement:
         from benchmarks.ocp_refine import refinement_rows
         figures["refinement"] = refinement_rows(reps=args.reps)
+    if args.accuracy:
+        from benchmarks.ocp_accuracy import rows as accuracy_rows
+        figures["accuracy"] = accuracy_rows([n for n in args.accuracy.split(",") if n])
     if args.save:
         from benchmarks.results import write_results
         write_results("ocp", figures)

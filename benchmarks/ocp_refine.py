@@ -116,7 +116,7 @@ def refinement_rows(names=tuple(START), reps: int = 1) -> dict:
         figures[f"{name[0]} {method}"] = {"accuracy": ACCURACY, "start_intervals": START[name],
                          "refined": {"rounds": rounds, "intervals": sol.solver["intervals"], "error": _error(sol),
                                      "iterations": sol.solver["iterations"], "time_s": t_ref,
-                                     "objective": sol.objective, "reached": sol.solver.get("accuracy_reached"),
+                                     "objective": sol.objective, "reached": (sol.solver.get("accuracy") or {}).get("reached"),
                                      "nodes": nodes},
                          "uniform": {"intervals": n_uni, "error": _error(usol), "iterations": usol.solver["iterations"],
                                      "time_s": t_uni, "objective": usol.objective, "probes": probes,
