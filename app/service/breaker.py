@@ -43,7 +43,14 @@ REQUEST_BOUND_S = 0.25
 _REDIS_SCHEMES = ("redis://", "rediss://", "redis+socket://")
 
 
-def _unreachable(exc: BaseException) -> bool:
+def describe(exc: BaseException) -> str:
+    """An exception's class and Redis's words for a refusal (never an address)."""
+    from app.service.broker import refusal
+
+    return f"{type(exc).__name__}: {refusal(exc)}" if not unreachable(exc) else type(exc).__name__
+
+
+def unreachable(exc: BaseException) -> bool:
     """Whether ``exc`` says Redis did not answer (as opposed to a command it refused: OOM, MISCONF)."""
     from redis.exceptions import ConnectionError as RedisConnectionError
     from redis.exceptions import TimeoutError as RedisTimeoutError
@@ -96,7 +103,7 @@ class BrokerBreaker:
         try:
             return fn()
         except Exception as exc:
-            if not _unreachable(exc):
+            if not unreachable(exc):
                 raise
             if trip:
                 self.trip(exc)

@@ -7,7 +7,9 @@ the process's breaker opens (app.service.breaker) and the publisher
 * keeps the job, and every one handed to it while the breaker is open, in memory, marking them
   unpublished in the jobs table (``published_at`` NULL, one UPDATE per batch), so that the recovery loop
   of any process that reaches Redis may send them too, and a restart of this one loses nothing;
-* sends them as soon as the breaker's probe finds Redis again, and marks them published
+* sends them as soon as the breaker's probe finds Redis again (a broker that answers but refuses the write,
+  ``maxmemory`` or ``MISCONF``, is not a lost one: the jobs are kept the same way and tried again every
+  probe interval, without opening the breaker, so ``/readyz`` names the refusal), and marks them published
   (``published_at`` set), skipping those another process sent meanwhile or that are no longer queued.
 
 A job sent twice (here and by a recovery loop) is harmless: the delivery that comes second is dropped at
@@ -18,6 +20,7 @@ from __future__ import annotations
 
 import logging
 import threading
+import time
 from collections import OrderedDict
 from dataclasses import dataclass
 
@@ -53,6 +56,7 @@ class Publisher:
         self._cv = threading.Condition()
         self._thread: threading.Thread | None = None
         self._breaker: breakers.BrokerBreaker | None = None
+        self._refused_until = 0.0  # time.monotonic() before which a broker that refused is not asked again
 
     @property
     def breaker(self) -> breakers.BrokerBreaker:
@@ -87,7 +91,7 @@ class Publisher:
                     return
                 batch = list(self._pending.values())
             try:
-                if self.breaker.open:
+                if self.breaker.open or time.monotonic() < self._refused_until:
                     self._mark_unpublished(batch)
                     self.breaker.wait_closed(self.settings.broker_probe_interval_s)
                     continue
@@ -110,9 +114,12 @@ class Publisher:
                 publish_job(self.celery, self.settings, job_id=p.job_id, attempt=p.attempt, kind=p.kind,
                             queue=p.queue)
             except Exception as exc:
-                log.warning("could not publish job %s (%s); kept until the broker answers", p.job_id,
-                            type(exc).__name__)
-                self.breaker.trip(exc)
+                log.warning("could not publish job %s (%s); kept until the broker takes it", p.job_id,
+                            breakers.describe(exc))
+                if breakers.unreachable(exc):
+                    self.breaker.trip(exc)
+                else:  # answered but refused (maxmemory, MISCONF): not a lost broker; try again shortly
+                    self._refused_until = time.monotonic() + self.settings.broker_probe_interval_s
                 break
             sent.append(p)
         jobs.mark_published(self.db, [p.job_id for p in sent if p.marked])
