@@ -78,16 +78,20 @@ lint: install-test
 # scripts/test-prerequisites.sh makes the machine's PostgreSQL, Redis and Debian's Chromium present
 # (or stops naming the missing one); the suite ends with the time each marker took.
 # make test PYTEST_ARGS="--random-order" shuffles the order (pytest-random-order; seed printed).
+# The suite runs in TEST_WORKERS processes (pytest-xdist; auto: one per core; 0: in this process alone),
+# each test file whole in one of them (tests/conftest.py says why and which files go together).
+TEST_WORKERS ?= auto
+XDIST = -n $(TEST_WORKERS) --dist loadfile
 test: install-test
 	scripts/test-prerequisites.sh
 	$(MAKE) --no-print-directory lint
-	$(PY) -m pytest $(PYTEST_ARGS)
+	$(PY) -m pytest $(XDIST) $(PYTEST_ARGS)
 
 # The fast loop before a commit (under 2 minutes): the lint above and the unit tests less the long solves
 # (`slow`, which `make test` still runs); no PostgreSQL, Redis or browser needed.
 CHECK_MARKERS := not slow and not integration and not browser and not faults
 check: lint
-	$(PY) -m pytest -q tests/unit -m "$(CHECK_MARKERS)" $(PYTEST_ARGS)
+	$(PY) -m pytest -q $(XDIST) tests/unit -m "$(CHECK_MARKERS)" $(PYTEST_ARGS)
 
 $(VENV)/.installed-bench: $(VENV)/.installed pyproject.toml uv.lock
 	$(call install_locked,--extra bench,bench)
