@@ -18,8 +18,9 @@ from app.runtime.settings import Settings
 MARGIN = 0.9   # estimate = MARGIN x measured: 10% in the user's favour
 
 
-def estimate_mb(kind: str, params: dict) -> float | None:
-    """A lower estimate of the job's peak resident memory in MB, or None for a kind this process does not know."""
+def measured_mb(kind: str, params: dict) -> float | None:
+    """The job's peak resident memory in MB as the kind's model predicts it (the measured figure, before
+    :data:`MARGIN`), or None for a kind this process does not know."""
     from app.kinds import KINDS   # on first use: importing this module loads no kind package
 
     spec = KINDS.get(kind)
@@ -29,7 +30,13 @@ def estimate_mb(kind: str, params: dict) -> float | None:
     measured = model.floor_mb
     if model.size is not None:
         measured += model.per_unit_mb * max(model.size(params) - model.floor_size, 0.0)
-    return MARGIN * measured
+    return measured
+
+
+def estimate_mb(kind: str, params: dict) -> float | None:
+    """A lower estimate of the job's peak resident memory in MB, or None for a kind this process does not know."""
+    measured = measured_mb(kind, params)
+    return None if measured is None else MARGIN * measured
 
 
 class OverMemoryCap(Exception):

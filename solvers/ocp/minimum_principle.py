@@ -26,6 +26,7 @@ from solvers.ocp.hamiltonian import functions as h_functions
 
 GRID = 41            # candidate values along each control's range
 ZOOM = 21            # candidates of the refinement around the best one, within one grid step
+BLOCK = 2_000_000      # numbers evaluated at once (16 MB of doubles per array)
 CORNERS = 6          # at most this many controls have all their bounds' corners tried
 FEASIBLE = 1e-6      # a candidate may exceed a mixed constraint's bound by this fraction of its scale
 
@@ -73,14 +74,23 @@ def minimum_principle(*, problem, fns, nlp_grid, sign: float, att, lam: np.ndarr
 
     def h_of(cand: np.ndarray) -> np.ndarray:            # cand (nu, n, S) -> H (n, S), inf where not admissible
         n = cand.shape[1]
-        flat = cand.reshape(nu, n * S)
-        tt, xx = np.tile(td, n), np.tile(xd, n)
-        out = evaluate(hf.H, t=tt, X=xx, U=flat, att=att, c=c, t0=t0, lam=np.tile(ld, n)).reshape(n, S)
+        out = np.empty((n, S))
+        bad = np.zeros((n, S), bool)
+        # a block of candidates at a time: the tiled states and costates of every candidate at every sample
+        # at once grew as candidates x samples x states (14 GB for 40 states and controls on 200 intervals)
+        step = max(1, BLOCK // max(S * (2 * nx + nu + 2 * fns.npath + 1), 1))
+        for a in range(0, n, step):
+            k = min(step, n - a)
+            flat = cand[:, a:a + k].reshape(nu, k * S)
+            tt, xx = np.tile(td, k), np.tile(xd, k)
+            out[a:a + k] = evaluate(hf.H, t=tt, X=xx, U=flat, att=att, c=c, t0=t0,
+                                    lam=np.tile(ld, k)).reshape(k, S)
+            if mixed.size:
+                P = np.asarray(fns.path.map(k * S)(tt[None, :], xx, flat, att.theta, c, t0, att.tf))[mixed]
+                P = P.reshape(mixed.size, k, S)
+                bad[a:a + k] = np.any((P < lower[:, None, :]) | (P > upper[:, None, :]), axis=0)
         out = pool(out)
         if mixed.size:
-            P = np.asarray(fns.path.map(n * S)(tt[None, :], xx, flat, att.theta, c, t0, att.tf))[mixed]
-            P = P.reshape(mixed.size, n, S)
-            bad = np.any((P < lower[:, None, :]) | (P > upper[:, None, :]), axis=0)
             if grid.method == "multiple_shooting" and grid.control == "constant":
                 bad = (bad.astype(float) @ member)[:, idx] > 0.0       # a constant control: the whole interval
             out = np.where(bad, np.inf, out)

@@ -1,0 +1,123 @@
+"""Peak memory of ``ocp`` jobs against their estimate (issue 36 item 1): wide, long and multi-phase
+problems, each run in a fresh process the way a worker's pool child runs it.
+
+Run: ``python -m benchmarks.ocp_memory`` (``--cases wide,three-phase`` for a subset).
+
+Each case is a linear-quadratic problem of the width and length asked (``n`` states, ``m`` controls,
+``x_i' = -x_i/2 + u_(i mod m)``, ``integral of sum x^2 + sum u^2`` on a fixed horizon): IPOPT solves it in a
+few iterations, so the figure is what the job builds (the NLP, its derivatives, the solver's factors,
+the check solve on the finer mesh), not how long it searches.  The peak is the child's own high-water
+mark (``VmHWM``); the estimate is :func:`app.service.job_memory.measured_mb` (without the margin).
+Figures go to ``benchmarks/results/latest.json`` under ``ocp_memory``.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def lq_phase(n: int, m: int, intervals: int, *, name: str | None = None, method: str = "multiple_shooting",
+             nodes: int = 4) -> dict:
+    """One phase (or a whole single-phase problem) of ``n`` states and ``m`` controls."""
+    states = [{"name": f"x{i}", "initial": 1.0} for i in range(n)]
+    controls = [{"name": f"u{j}", "lower": -10.0, "upper": 10.0} for j in range(m)]
+    tr: dict = {"method": method, "intervals": intervals}
+    if method == "lgl":
+        tr["nodes"] = nodes
+    out = {"states": states, "controls": controls, "time": {"initial": 0.0, "final": 1.0},
+           "dynamics": {f"x{i}": f"-0.5*x{i} + u{i % m}" for i in range(n)}, "transcription": tr}
+    if name:
+        out["name"] = name
+    return out
+
+
+def _integrand(n: int, m: int) -> str:
+    return " + ".join([f"x{i}**2" for i in range(n)] + [f"u{j}**2" for j in range(m)])
+
+
+def single(n: int, m: int, intervals: int, **kw) -> dict:
+    return {**lq_phase(n, m, intervals, **kw), "objective": {"sense": "minimize", "integrand": _integrand(n, m)}}
+
+
+def phased(k: int, n: int, m: int, intervals: int) -> dict:
+    """``k`` phases one after the other, each ``lq_phase`` on [i, i+1], states continuous across them."""
+    phases = []
+    for i in range(k):
+        ph = lq_phase(n, m, intervals, name=f"p{i}")
+        ph["time"] = {"initial": float(i), "final": float(i + 1)}
+        if i:
+            ph["states"] = [{"name": s["name"]} for s in ph["states"]]
+        phases.append(ph)
+    return {"phases": phases, "objective": {"sense": "minimize", "integrand": _integrand(n, m)}}
+
+
+CASES = {
+    "narrow-long": lambda: single(4, 2, 1000),
+    "wide": lambda: single(30, 10, 200),
+    "wider": lambda: single(50, 20, 150),
+    "wide-lgl": lambda: single(20, 8, 150, method="lgl", nodes=5),
+    "three-phase": lambda: phased(3, 6, 2, 400),
+    "three-phase-wide": lambda: phased(3, 20, 8, 100),
+}
+
+
+def _hwm_mb() -> float:
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1]) / 1024
+    return -1.0
+
+
+def child(params_json: str) -> int:
+    """Run the ``ocp`` body in ``params_json`` here and print one JSON line with this process's peak."""
+    from app.kinds import KINDS
+    from app.kinds.base import InProcessContext
+    from app.service.params import resolve_params
+
+    spec = KINDS["ocp"]
+    params = spec.params_model.model_validate(resolve_params(spec, json.loads(params_json), None))
+    outcome = spec.run(params, InProcessContext())
+    print("RESULT " + json.dumps({"status": outcome.status, "error": (outcome.error or {}).get("code"),
+                                  "peak_mb": _hwm_mb()}), flush=True)
+    return 0
+
+
+def measure(params: dict, timeout_s: float = 900) -> dict:
+    """Run ``params`` in a fresh process: ``{status, error, peak_mb}``."""
+    out = subprocess.run([sys.executable, "-m", "benchmarks.ocp_memory", "--child", json.dumps(params)],
+                         cwd=ROOT, capture_output=True, text=True, timeout=timeout_s, check=True,
+                         env={**os.environ, "PYTHONPATH": str(ROOT)})
+    return json.loads(next(l for l in out.stdout.splitlines() if l.startswith("RESULT ")).removeprefix("RESULT "))
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--cases", default=",".join(CASES))
+    ap.add_argument("--child", help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    if args.child:
+        return child(args.child)
+    from app.service.job_memory import measured_mb
+
+    figures = {}
+    print(f"{'case':<20}{'status':<11}{'estimate MB':>13}{'peak MB':>10}{'ratio':>8}")
+    for name in args.cases.split(","):
+        params = CASES[name]()
+        est = measured_mb("ocp", params) or 0.0
+        r = measure(params)
+        r.update(estimate_mb=est, ratio=est / r["peak_mb"])
+        figures[name] = r
+        print(f"{name:<20}{r['status']:<11}{est:>13.0f}{r['peak_mb']:>10.0f}{r['ratio']:>8.2f}", flush=True)
+    from benchmarks.results import write_results
+    write_results("ocp_memory", figures)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
