@@ -8,15 +8,21 @@ from app.results.tables import columns, columns_at
 
 
 def _size(params: dict) -> float:
-    """RK4 steps (or LGL nodes) x (states + controls) of the largest NLP the job builds: the answer's check
-    on its mesh with every interval cut in s parts (:func:`check_parts`)."""
+    """RK4 steps (or LGL nodes) x (states + controls) of the largest NLP the job builds, summed over its
+    phases: the answer's check on its mesh with every interval cut in s parts (:func:`check_parts`)."""
+    phases = [p for p in params.get("phases") or [] if isinstance(p, dict)] or [params]
+    return sum(_phase_size(p) for p in phases)
+
+
+def _phase_size(params: dict) -> float:
     tr = params.get("transcription") or {}
     if tr.get("method", "multiple_shooting") == "multiple_shooting":
         steps = float(tr.get("substeps", 2))
     else:
         steps = float(tr.get("nodes", 4))
     width = float(len(params.get("states") or []) + len(params.get("controls") or []))
-    return float(tr.get("intervals", 50)) * steps * width * check_parts(tr)
+    intervals = len(tr["boundaries"]) - 1 if tr.get("boundaries") else tr.get("intervals", 50)
+    return float(intervals) * steps * width * check_parts(tr)
 
 
 def check_parts(transcription: dict) -> int:
@@ -27,11 +33,14 @@ def check_parts(transcription: dict) -> int:
     shooting = transcription.get("method", "multiple_shooting") == "multiple_shooting"
     return 3 if shooting and transcription.get("control", "linear") == "linear" else 2
 
-# Measured (README "Limits and data"): 215 MB resident in a fresh pool process at a size of 100 intervals x
-# 2 steps x 8 states and controls, 0.0003 MB more per step x (states + controls) past it.
-MEMORY = MemoryModel(floor_mb=215.0, size=_size, floor_size=100.0 * 2 * 8, per_unit_mb=0.0003,
+# Measured (README "Limits and data"; benchmarks/ocp_memory.py): 215 MB resident in a fresh pool process at
+# the betts-shuttle-ocp preset's size (100 intervals x 2 steps x 8 states and controls x 3 check parts);
+# past it 0.015 MB per step x (states + controls) x check part, fitted to LQ problems of 4x2 states and
+# controls on 300 and 1000 intervals (320, 539 MB) and 20x8 on 100 (498 MB): the answer, its check on the
+# finer mesh, the re-flight and the optimality checks at its samples.
+MEMORY = MemoryModel(floor_mb=215.0, size=_size, floor_size=100.0 * 2 * 8 * 3, per_unit_mb=0.015,
                      grows_with="transcription.intervals x steps per interval x (states + controls) x the check's "
-                                "parts (3 for multiple shooting's linear controls, 2 otherwise)")
+                                "parts (3 for multiple shooting's linear controls, 2 otherwise), summed over the phases")
 
 
 def trajectory_table(result: dict) -> dict[str, list] | None:
