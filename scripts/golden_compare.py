@@ -24,7 +24,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 # Keys whose values are wall-clock measurements or cache state, not results.
 SKIPPED_KEYS = {"solve_time_s", "build_time_s", "time_s", "verification_time_s", "cached_build",
-                "solver_cached", "wall_time_s", "elapsed_s"}
+                "solver_cached", "wall_time_s", "elapsed_s", "check_time_s"}
 
 # Extra cases per kind: (case name, preset to start from, overrides). Warm starts name an earlier case.
 EXTRA = {
