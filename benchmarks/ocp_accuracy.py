@@ -25,7 +25,7 @@ import math
 import os
 import time
 
-from benchmarks.ocp_refine import _solve
+from benchmarks.ocp_refine import solve_as_given
 from solvers.ocp import PRESETS, parse_problem, solve
 from solvers.ocp.symbolic import reset_caches
 from solvers.transcription.nlp import clear_cache
@@ -66,7 +66,7 @@ def _cold(params: dict):
     reset_caches()
     clear_cache()
     t = time.perf_counter()
-    sol = solve(parse_problem(params)) if params.get("accuracy") is not None else _solve(params)
+    sol = solve(parse_problem(params)) if params.get("accuracy") is not None else solve_as_given(params)
     return sol, time.perf_counter() - t
 
 
@@ -77,7 +77,7 @@ def smallest_uniform(name: str, target: float) -> tuple[int | None, int]:
     def ok(n: int) -> bool:
         nonlocal probes
         probes += 1
-        sol = _solve(_params(name, n))
+        sol = solve_as_given(_params(name, n))
         return sol.status.ok and objective_error(name, sol.objective) <= target
 
     hi = int(PRESETS[name]["params"]["transcription"].get("intervals", 50))

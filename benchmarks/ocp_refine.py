@@ -42,7 +42,7 @@ def _params(case, intervals: int, accuracy: float | None) -> dict:
     return params
 
 
-def _solve(params: dict):
+def solve_as_given(params: dict):
     """``solve``; without ``accuracy`` on the grid as given (no terminal-miss substep rounds)."""
     rounds = ocp_solver.TERMINAL_ROUNDS
     if params.get("accuracy") is None:
@@ -57,7 +57,7 @@ def _cold(name, intervals: int, accuracy: float | None):
     reset_caches()
     clear_cache()
     t = time.perf_counter()
-    sol = _solve(_params(name, intervals, accuracy))
+    sol = solve_as_given(_params(name, intervals, accuracy))
     return sol, time.perf_counter() - t
 
 
@@ -72,7 +72,7 @@ def smallest_uniform(name, start: int, accuracy: float, *, cap: int = 1000) -> t
     def ok(n: int) -> bool:
         nonlocal probes
         probes += 1
-        sol = _solve(_params(name, n, None))
+        sol = solve_as_given(_params(name, n, None))
         return sol.status.ok and _error(sol) <= accuracy
 
     lo, hi = start, start

@@ -91,7 +91,9 @@ def test_a_bang_bang_answer_refined_to_1e_6_is_within_its_estimate_of_the_optimu
 def test_a_coarse_grid_is_flagged_by_its_estimate():
     # piecewise-linear controls on 19 intervals: the switch ramps over an interval, 4.6e-4 off tf = 2
     sol = solve(parse_problem(_params("double-integrator-min-time", intervals=19, control="linear")))
-    assert sol.status.outcome is Outcome.OPTIMAL, sol.status.message
+    # a usable answer: on a grid this coarse the minimum principle may see the unresolved switch on the
+    # dense grid (optimality_not_verified), which is the point of the estimate too
+    assert sol.status.ok, sol.status.message
     acc = sol.solver["accuracy"]
     _consistent(acc)
     true = abs(sol.objective - PRESETS["double-integrator-min-time"]["optimum"]) / 2.0
@@ -113,7 +115,9 @@ def test_a_halved_switch_would_hide_the_error_of_a_linear_control():
 
 def test_the_lgl_estimate_follows_the_true_error():
     sol = solve(parse_problem(_params("double-integrator-min-time", method="lgl", intervals=7, nodes=4)))
-    assert sol.status.outcome is Outcome.OPTIMAL, sol.status.message
+    # a usable answer: on a grid this coarse the minimum principle may see the unresolved switch on the
+    # dense grid (optimality_not_verified), which is the point of the estimate too
+    assert sol.status.ok, sol.status.message
     true = abs(sol.objective - 2.0) / 2.0
     acc = sol.solver["accuracy"]
     assert true > 1e-4 and true / 10 <= acc["objective_error_estimate"] <= 10 * true

@@ -55,7 +55,9 @@ def test_betts_shuttle_ocp_equals_reentry_kind():
 def test_presets_are_complete_bodies():
     for preset in PRESETS.values():
         assert set(preset) == {"description", "optimum", "tolerance", "params"}
-        assert str(preset["optimum"]) in preset["description"] or f"{preset['optimum']:g}" in preset["description"]
+        if preset["optimum"] is not None:     # a robust design's preset has no published optimum to quote
+            assert (str(preset["optimum"]) in preset["description"]
+                    or f"{preset['optimum']:g}" in preset["description"])
         parse_problem(preset["params"])
 
 
