@@ -72,15 +72,26 @@ def test_a_native_call_past_the_time_limit_is_ended_by_the_guard(tmp_path):
     assert json.loads(out.read_text()) == {"code": "time_limit", "message": "past its time limit"}
 
 
+def _fresh_pages(nbytes: int):
+    """``nbytes`` resident in new pages: an anonymous mapping written through.  np.ones could reuse pages
+    malloc already holds (glibc raises its mmap threshold after large frees), and in a process that has run
+    many tests (a pytest-xdist worker) the resident size then does not grow by the array."""
+    import mmap
+
+    block = mmap.mmap(-1, nbytes)
+    np.frombuffer(block, dtype=np.uint8)[:] = 1
+    return block
+
+
 def test_memory_an_earlier_job_left_is_not_charged_to_the_next():
     first = JobGuard(job_id="a", cap_bytes=None, deadline=float("inf"), grace_s=0, time_limit_message="",
                      on_breach=lambda e: None)
     with first:
-        left = np.ones(80 * MB // 8)  # kept after the job, as a cache would be
+        left = _fresh_pages(80 * MB)  # kept after the job, as a cache would be
     second = JobGuard(job_id="b", cap_bytes=None, deadline=float("inf"), grace_s=0, time_limit_message="",
                       on_breach=lambda e: None)
     with second:
-        own = np.ones(30 * MB // 8)
+        own = _fresh_pages(30 * MB)
         held = second.charged(guard.resident_bytes())
     assert second.start_bytes >= first.start_bytes + 70 * MB  # the 80 MB are in the process...
     assert held < second.first_bytes + 50 * MB                # ...and not in the second job's charge
