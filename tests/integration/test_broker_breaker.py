@@ -32,10 +32,17 @@ def _until(predicate, what: str):
 
 @pytest.fixture
 def link(redis_url):
-    host, port = redis_url.split("//", 1)[1].split("/", 1)[0].split(":")
+    # a Redis database of this test's own: the run's database is shared with the workers other modules of
+    # the same pytest(-xdist) process started, and one of them took the published message off the queue
+    # before this test could see it there (failed in the full suite, never alone)
+    from tests.integration.conftest import claim_redis_db
+
+    own, url = claim_redis_db(redis_url)
+    host, port = url.split("//", 1)[1].split("/", 1)[0].split(":")
     relay = SilentLink(host, int(port))
-    yield relay, redis_url.rsplit("/", 1)[1]
+    yield relay, url.rsplit("/", 1)[1]
     relay.close()
+    own.flushdb()  # also releases its run lock
 
 
 def _settings(url: str) -> Settings:
