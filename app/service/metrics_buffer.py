@@ -29,10 +29,21 @@ RETRY_S = 2.0
 IDLE_EXIT_S = 60.0
 TOKEN_PREFIX = "trajlab:metrics:flush:"
 TOKEN_TTL_S = 3600
-# ARGV: the token's expiry, then each command as its argument count followed by its arguments
+# The only commands a metric write is (app.service.metrics): anything else is refused here and by the
+# script, so the script applies counter updates and nothing else, whatever its arguments.
+COMMANDS = frozenset({"HINCRBY", "HINCRBYFLOAT", "SET"})
+# A constant server-side script (no text of ours or a user's is ever evaluated): ARGV is the token's
+# expiry, then each command as its argument count followed by its arguments; every command is checked
+# against the allow-list before any is applied.
 _APPLY_ONCE = """
-if not redis.call('SET', KEYS[1], '1', 'NX', 'EX', ARGV[1]) then return 0 end
+local allowed = {HINCRBY = true, HINCRBYFLOAT = true, SET = true}
 local i = 2
+while i <= #ARGV do
+  if not allowed[ARGV[i + 1]] then return redis.error_reply('metrics: command not allowed') end
+  i = i + tonumber(ARGV[i]) + 1
+end
+if not redis.call('SET', KEYS[1], '1', 'NX', 'EX', ARGV[1]) then return 0 end
+i = 2
 while i <= #ARGV do
   local n = tonumber(ARGV[i])
   redis.call(unpack(ARGV, i + 1, i + n))
@@ -54,6 +65,9 @@ class _Buffer:
     def add(self, client, commands: list[tuple]) -> None:
         if not commands:
             return
+        refused = {c[0] for c in commands} - COMMANDS
+        if refused:
+            raise ValueError(f"not a metric write: {sorted(refused)}")
         with self.cv:
             self.waiting.extend((client, c) for c in commands)
             kept = len(self.waiting) + sum(len(b[2]) for b in self.batches)

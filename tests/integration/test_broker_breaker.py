@@ -116,3 +116,21 @@ def test_the_failed_key_limit_counts_in_the_process_while_the_breaker_is_open(li
     assert limiter.retry_after_s("10.0.0.1") is not None
     relay.restore()
     _until(lambda: not b.open, "the breaker closed after the return")
+
+
+def test_the_metrics_script_applies_metric_writes_only(redis_url):
+    # the buffer's server-side script is constant and applies only the allow-listed counter updates: a
+    # command outside the list is refused before the buffer takes it and, sent to the script anyway,
+    # refused by it before anything (the batch's token included) is written
+    with pytest.raises(ValueError, match="not a metric write"):
+        metrics_buffer.add(object(), [("FLUSHDB",)])
+    r = redis.Redis.from_url(redis_url)
+    token, key = metrics_buffer.TOKEN_PREFIX + "allow-list-test", "trajlab:test:allow-list"
+    r.delete(token, key)
+    with pytest.raises(redis.ResponseError, match="not allowed"):
+        r.eval(metrics_buffer._APPLY_ONCE, 1, token, 60, 4, "HINCRBY", key, "n", 1, 2, "DEL", key)
+    assert not r.exists(token) and not r.exists(key)
+    assert r.eval(metrics_buffer._APPLY_ONCE, 1, token, 60, 4, "HINCRBY", key, "n", 1) == 1
+    assert r.eval(metrics_buffer._APPLY_ONCE, 1, token, 60, 4, "HINCRBY", key, "n", 1) == 0   # applied once
+    assert r.hget(key, "n") == b"1"
+    r.delete(token, key)
