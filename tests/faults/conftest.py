@@ -9,6 +9,8 @@ import subprocess
 import sys
 import time
 from collections import Counter
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
@@ -17,6 +19,7 @@ from fastapi.testclient import TestClient
 from app.api.main import create_app
 from app.runtime.migrate import upgrade
 from app.runtime.settings import Settings
+from tests.faults.hosts import Host
 from tests.faults.servers import PostgresServer, RedisServer
 from tests.integration.live import stop_group
 
@@ -147,6 +150,32 @@ def stack(tmp_path):
         s.close()
         redis.kill()
         pg.destroy()
+
+
+@contextmanager
+def namespaced_stack(tmp_path: Path, links: dict[str, list[int]],
+                     serve: tuple[int, ...] | None = None) -> Iterator[tuple[Stack, dict[str, Host]]]:
+    """Hosts in network namespaces (``links``: host name -> its link numbers) and a stack whose PostgreSQL
+    and Redis listen on this side of the links ``serve`` names (default: all); everything removed
+    afterwards, also when the test fails."""
+    hosts = {name: Host(name, host_links) for name, host_links in links.items()}
+    try:
+        for h in hosts.values():
+            h.create()
+        served = serve if serve is not None else tuple(n for host_links in links.values() for n in host_links)
+        listen = ("127.0.0.1", *(Host.server_address(n) for n in served))
+        pg = PostgresServer(listen=listen).start()
+        redis = RedisServer(tmp_path, listen=listen).start()
+        stack = Stack(pg, redis, tmp_path)
+        try:
+            yield stack, hosts
+        finally:
+            stack.close()
+            redis.kill()
+            pg.destroy()
+    finally:
+        for h in hosts.values():
+            h.close()
 
 
 def report(name: str, **figures) -> None:

@@ -35,9 +35,8 @@ import redis as redis_lib
 
 from app.runtime.settings import Settings
 from app.service.metrics import PREFIX
-from tests.faults.conftest import FINAL, QUICK, ROOT, Stack, report
+from tests.faults.conftest import FINAL, QUICK, ROOT, Stack, namespaced_stack, report
 from tests.faults.hosts import Host
-from tests.faults.servers import PostgresServer, RedisServer
 from tests.integration.live import free_port, stop_group
 from tests.support import wait_serving
 
@@ -57,23 +56,9 @@ STUDY = {**SHORT, "mode": "independent", "sweeps": [{"path": "scan.step_s", "val
 
 @pytest.fixture
 def cut_hosts(tmp_path):
-    hosts = {"api": Host("api", [API_DB, API_REDIS, API_CLIENTS]), "w": Host("w", [W_DB, W_REDIS])}
-    try:
-        for h in hosts.values():
-            h.create()
-        listen = ("127.0.0.1", *(Host.server_address(n) for n in (API_DB, API_REDIS, W_DB, W_REDIS)))
-        pg = PostgresServer(listen=listen).start()
-        redis = RedisServer(tmp_path, listen=listen).start()
-        stack = Stack(pg, redis, tmp_path)
-        try:
-            yield stack, hosts
-        finally:
-            stack.close()
-            redis.kill()
-            pg.destroy()
-    finally:
-        for h in hosts.values():
-            h.close()
+    with namespaced_stack(tmp_path, {"api": [API_DB, API_REDIS, API_CLIENTS], "w": [W_DB, W_REDIS]},
+                          serve=(API_DB, API_REDIS, W_DB, W_REDIS)) as both:
+        yield both
 
 
 def _over(url: str, link: int) -> str:

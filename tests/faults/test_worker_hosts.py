@@ -23,9 +23,8 @@ import httpx
 import psycopg
 import pytest
 
-from tests.faults.conftest import ROOT, Stack, report
+from tests.faults.conftest import ROOT, Stack, namespaced_stack, report
 from tests.faults.hosts import Host
-from tests.faults.servers import PostgresServer, RedisServer
 from tests.integration.live import free_port, stop_group
 
 pytestmark = [pytest.mark.integration, pytest.mark.faults,
@@ -49,24 +48,8 @@ LONG = {"kind": "intercept", "preset": "long-range-intercept",  # a few seconds:
 
 @pytest.fixture
 def hosts_stack(tmp_path):
-    hosts = {name: Host(name, links) for name, links in
-             (("a", [A]), ("b", [B]), ("api", [API_DB, API_CLIENTS]))}
-    try:
-        for h in hosts.values():
-            h.create()
-        listen = ("127.0.0.1", *(Host.server_address(n) for n in (A, B, API_DB, API_CLIENTS)))
-        pg = PostgresServer(listen=listen).start()
-        redis = RedisServer(tmp_path, listen=listen).start()
-        stack = Stack(pg, redis, tmp_path)
-        try:
-            yield stack, hosts
-        finally:
-            stack.close()
-            redis.kill()
-            pg.destroy()
-    finally:
-        for h in hosts.values():
-            h.close()
+    with namespaced_stack(tmp_path, {"a": [A], "b": [B], "api": [API_DB, API_CLIENTS]}) as both:
+        yield both
 
 
 def _urls(stack: Stack, link: int) -> dict:
