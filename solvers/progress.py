@@ -82,7 +82,6 @@ class Progress:
         self._shared = shared or _Shared(on_progress)
         self._top = shared is None
         self._last = plan[-1].name
-        self.current: str | None = None
 
     def _locate(self, name: str, round: int | None) -> tuple[float, float, str, int | None]:
         if name not in self.plan:
@@ -102,7 +101,6 @@ class Progress:
         """Announce stage ``name`` (round ``round`` of a repeating one) and return the callback that
         reports the fraction done within it, ``(fraction in [0, 1], detail)``."""
         a, b, words, rnd = self._locate(name, round)
-        self.current = name
         if self._top and name == self._last:
             self._shared.final = True
         self._shared.emit(a, f"{words}: {message}" if message else words, words, rnd)
@@ -124,8 +122,3 @@ class Progress:
         self._shared.final = True
         self._shared.emit(1.0, message, self._last, None)
 
-
-def as_progress(on_progress, plan: Sequence[Stage]) -> Progress:
-    """``on_progress`` as a :class:`Progress` over ``plan``: a Progress handed in is nested work of a
-    larger plan and kept as it is; a plain callback (or None) gets a plan of its own."""
-    return on_progress if isinstance(on_progress, Progress) else Progress(on_progress, plan)

@@ -103,7 +103,7 @@ def check_phase(block, num: Numbers, z: np.ndarray, *, t0: float, agreement: flo
     extra = {}
     if mult is not None:
         lam, mapped = costates(nlp=nlp, num=num, att=att, mu=mult.defects, t_nodes=t_nodes, c=c, t0=t0,
-                               sign=nlp.sign, hx=_hx(nlp, num, mult, att, U, t_nodes, c, t0))
+                               hx=_hx(nlp, num, mult, att, U, t_nodes, c, t0))
         H, size = hamiltonian(fns=fns, sign=nlp.sign, att=att, lam=lam, U=U, t_nodes=t_nodes, c=c, t0=t0)
         verification["optimality"] = optimality_checks(problem=prob, nlp=nlp, att=att, lam=lam, U=U, t_nodes=t_nodes,
                                                        c=c, t0=t0, H=H, size=size, num=num,

@@ -97,7 +97,7 @@ def multipliers_of(nlp, res, p: np.ndarray, lbz: np.ndarray, ubz: np.ndarray) ->
     return out
 
 
-def costates(*, nlp, num, att, mu: np.ndarray, t_nodes: np.ndarray, c, t0: float, sign: float,
+def costates(*, nlp, num, att, mu: np.ndarray, t_nodes: np.ndarray, c, t0: float,
              hx=None) -> tuple[np.ndarray, dict]:
     """``(nx, N)`` costates at the nodes of a phase (module docstring) from its defects' multipliers ``mu``,
     and the LGL mapping's own values at the ends (``{"initial", "final"}``, for transversality; none for
