@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 from solvers.common import SolveStatus
 from solvers.ocp.problem import OcpProblem
+from solvers.ocp.violations import INVALID_NUMBER
 
 
 @dataclass
@@ -63,8 +64,8 @@ def solution_of(problem: OcpProblem, *, nlp, res, status: SolveStatus, checks: l
                              f"nodes (worst {e['worst_value']:.4g} at t = {e['worst_t']:.4g}): LGL holds a bound at "
                              "the nodes only; refine, or use multiple shooting for a control that saturates")
     recovery = status.details.get("guess_recovery")
-    if recovery and recovery["status"] != "Invalid_Number_Detected":
-        notes.append(f"the first guess overflowed (IPOPT Invalid_Number_Detected at iteration "
+    if recovery and recovery["status"] != INVALID_NUMBER:
+        notes.append(f"the first guess overflowed (IPOPT {INVALID_NUMBER} at iteration "
                      f"{recovery['first_iterations']}); solved from a guess flown from the dynamics with the "
                      "guessed controls clipped to their bounds (solvers.ocp.flown)")
     if rounds:
