@@ -57,7 +57,7 @@ MAX_NODES = 12             # LGL nodes per interval (the request's transcription
 # The check starts from the answer, but a bang-bang answer interpolated onto a finer mesh is no longer at
 # the bounds where it should be: IPOPT's own defaults take it there in fewer iterations than the small
 # barrier of a warm start (lunar lander 60 -> 120 intervals: 12 iterations instead of 44).
-CHECK_IPOPT: dict | None = {}
+CHECK_IPOPT: dict = {}
 STALL = 0.5                # a round that does not cut the error to this fraction of the best is no progress
 STALL_GROWTH = 4           # refined everywhere after a stall up to this many times the first round's intervals
 STALL_FLOOR = 200          # (or this many)
@@ -218,13 +218,8 @@ class Refinement:
         meshes = tuple(halved(mesh_of(ph.problem), parts_of(ph.problem.transcription)) for ph in trial.problem.phases)
         problem = on_meshes(trial.problem, meshes)
         t0 = time.perf_counter()
-        saved = self.solve.ipopt
-        if saved is None and CHECK_IPOPT is not None:
-            self.solve.ipopt = CHECK_IPOPT
-        try:
-            fine = Trial(self.solve.on_grid(problem, trial.sol.warm(), progress.within("check", CHECK_PLAN)), problem)
-        finally:
-            self.solve.ipopt = saved
+        fine = Trial(self.solve.on_grid(problem, trial.sol.warm(), progress.within("check", CHECK_PLAN),
+                                        ipopt=CHECK_IPOPT), problem)
         if not fine.converged:
             trial.check_failure = f"the check on {fine.intervals} intervals: {fine.sol.status.message}"
             return

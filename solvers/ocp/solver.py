@@ -111,14 +111,16 @@ class OcpSolve:
 
     # -- one grid ---------------------------------------------------------------------------------
     def on_grid(self, problem: OcpProblem, initial_guess: dict | None,
-                progress: Progress | None = None) -> OcpSolution:
+                progress: Progress | None = None, ipopt: dict | None = None) -> OcpSolution:
         """Build, solve, check every phase and hold the path limits, on the grid ``problem`` has; each
-        announced as a stage of ``progress`` (a refinement round's nested stages; None: the job's own)."""
+        announced as a stage of ``progress`` (a refinement round's nested stages; None: the job's own);
+        ``ipopt``: IPOPT's options on this grid where the solve has none of its own (None: the warm
+        start's for a warm guess, else IPOPT's defaults)."""
         progress = progress or self.progress
         t_start = time.perf_counter()
         n = len(problem.phases)
         progress.stage("build", message="building the NLP" if problem.single else f"building the NLP of {n} phases")
-        ipopt = self.ipopt
+        ipopt = own = self.ipopt if self.ipopt is not None else ipopt
         if ipopt is None and initial_guess and "start" not in initial_guess:   # a varied start is not near an optimum
             ipopt = WARM_IPOPT
         nlp = TrajectoryNLP(problem, ipopt=ipopt)
@@ -128,7 +130,7 @@ class OcpSolve:
         res = nlp.solver.solve(x0=placed.z0, lbx=placed.lbz, ubx=placed.ubz, lbg=placed.lbg, ubg=placed.ubg,
                                p=placed.p, on_progress=progress.stage("solve"), should_stop=self.should_stop)
         if res.status.solver_status == INVALID_NUMBER and res.status.iterations <= EARLY_ITERATIONS:
-            nlp, placed, res = self.fly_first(problem, nlp, initial_guess, res, progress)
+            nlp, placed, res = self.fly_first(problem, nlp, initial_guess, res, progress, own)
         status = res.status
         first = (status.iterations, status.solve_time_s)
         progress.stage("verification", message="re-flying the controls")
@@ -146,13 +148,15 @@ class OcpSolve:
         _judge(status, checks, rounds, problem)
         return solution_of(problem, nlp=nlp, res=res, status=status, checks=checks, rounds=rounds)
 
-    def fly_first(self, problem: OcpProblem, nlp: TrajectoryNLP, initial_guess: dict | None, res, progress):
+    def fly_first(self, problem: OcpProblem, nlp: TrajectoryNLP, initial_guess: dict | None, res, progress,
+                  ipopt: dict | None):
         """An overflow at the guess or in the first iterates: once more from the dynamics flown from the
         guess (:mod:`solvers.ocp.flown`), with IPOPT's cold start; ``(nlp, placed, res)`` of that solve,
-        or of the first when that overflows too (its message then says what the flight showed)."""
+        whether or not it overflows too (its ``guess_recovery`` details then carry what the flight showed:
+        the RK4 stiffness along it)."""
         first = res
         progress.stage("solve", message="the guess overflowed: flying the dynamics for a better one")
-        cold = TrajectoryNLP(problem, ipopt=self.ipopt)
+        cold = TrajectoryNLP(problem, ipopt=ipopt)
         flown, notes = flown_guess(problem, cold, initial_guess)
         placed = Placed(problem, cold, flown)
         assert cold.solver is not None  # a TrajectoryNLP is built with its solver
@@ -161,15 +165,12 @@ class OcpSolve:
         stopped = [n for n in notes if n["stopped_at_t"] is not None]
         recovery = {"guess": "flown", "first_iterations": first.status.iterations,
                     "flight_stopped": stopped, "status": again.status.solver_status}
-        if again.status.solver_status != INVALID_NUMBER:
-            again.status.iterations += first.status.iterations
-            again.status.details = {**again.status.details, "guess_recovery": recovery}
-            return cold, placed, again
-        stiff = rk4_stiffness(problem, cold, flown)
-        if stiff is not None:
-            recovery["rk4_stiffness"] = stiff
-        again.status.details = {**again.status.details, "guess_recovery": recovery}
+        if again.status.solver_status == INVALID_NUMBER:
+            stiff = rk4_stiffness(problem, cold, flown)
+            if stiff is not None:
+                recovery["rk4_stiffness"] = stiff
         again.status.iterations += first.status.iterations
+        again.status.details = {**again.status.details, "guess_recovery": recovery}
         return cold, placed, again
 
     def check(self, problem: OcpProblem, nlp: TrajectoryNLP, placed: Placed, res) -> list:
