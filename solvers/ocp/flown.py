@@ -19,12 +19,12 @@ step amplifies, and on a long horizon overflows whatever the guess.
 """
 from __future__ import annotations
 
-import casadi as ca
 import numpy as np
 
+from solvers.ocp.growth import jacobian_function
 from solvers.ocp.guess import guess_of, stored_phases
-from solvers.ocp.phase import positive_scale
 from solvers.ocp.problem import OcpProblem, PhaseProblem
+from solvers.ocp.scaling import state_scales
 from solvers.ocp.symbolic import functions_of
 
 ESCAPE = 1e3                # a flight past this many scales from its start is blowing up
@@ -32,8 +32,21 @@ RK4_STABILITY = 2.785       # RK4's stability interval on the negative real axis
 MAX_STEPS = 20000           # LSODA steps per phase at most: a flight is a guess, not an answer
 
 
-def _clip(v: np.ndarray, lo, hi) -> np.ndarray:
+def clip(v, lo, hi):
+    """``v`` within ``[lo, hi]`` (None: no bound that side)."""
     return np.clip(v, -np.inf if lo is None else lo, np.inf if hi is None else hi)
+
+
+def within_bounds(states, X: np.ndarray) -> np.ndarray:
+    """The state rows ``X`` clipped to their bounds, with the fixed ends put back: those are the NLP's
+    bounds, a guess keeps them."""
+    Xb = np.vstack([clip(X[i], s.lower, s.upper) for i, s in enumerate(states)]) if len(states) else X
+    for i, s in enumerate(states):
+        if s.initial is not None:
+            Xb[i, 0] = s.initial
+        if s.final is not None:
+            Xb[i, -1] = s.final
+    return Xb
 
 
 def fly(problem: PhaseProblem, grid, *, t0: float, tf: float, theta, X: np.ndarray, U: np.ndarray):
@@ -46,9 +59,9 @@ def fly(problem: PhaseProblem, grid, *, t0: float, tf: float, theta, X: np.ndarr
     tau_u = tau if grid.n_controls == grid.n_nodes else tau[:-1]
     t = t0 + (tf - t0) * tau
     t_u = t0 + (tf - t0) * tau_u
-    U = np.vstack([_clip(U[i], k.lower, k.upper) for i, k in enumerate(ph.controls)]) if ph.controls else U
+    U = np.vstack([clip(U[i], k.lower, k.upper) for i, k in enumerate(ph.controls)]) if ph.controls else U
     c = np.array([v for _, v in problem.constants], float)
-    scale = np.array([s.scale or positive_scale(s.lower, s.upper, s.initial, s.final) for s in ph.states])
+    scale = state_scales(problem)
     x0 = np.asarray(X[:, 0], float).copy()
 
     def controls(ti: float) -> np.ndarray:
@@ -86,12 +99,7 @@ def fly(problem: PhaseProblem, grid, *, t0: float, tf: float, theta, X: np.ndarr
     if flown.shape[1] < t.size:            # stopped: hold the last good state
         flown = np.hstack([flown, np.repeat(flown[:, -1:], t.size - flown.shape[1], axis=1)])
         stopped = float(t[reached - 1]) if stopped is None else stopped
-    Xf = np.vstack([_clip(flown[i], s.lower, s.upper) for i, s in enumerate(ph.states)])
-    for i, s in enumerate(ph.states):      # the fixed ends are the NLP's bounds: keep them
-        if s.initial is not None:
-            Xf[i, 0] = s.initial
-        if s.final is not None:
-            Xf[i, -1] = s.final
+    Xf = within_bounds(ph.states, flown)
     Ux = np.vstack([np.interp(t, t_u, row) for row in U]) if len(U) else np.zeros((0, t.size))
     return t, Xf, Ux, stopped
 
@@ -110,7 +118,7 @@ def as_stored(problem: OcpProblem, phases: list[dict], theta) -> dict:
     return {"phases": out, "parameters": params}
 
 
-def phase_start(problem: OcpProblem, ph, initial_guess: dict | None, stored: dict, grid):
+def phase_start(ph, initial_guess: dict | None, stored: dict, grid):
     """``(t0, tf, theta, X, U)`` of phase ``ph`` from the guess (a stored answer or the straight lines)."""
     old = stored.get(ph.name)
     warm = None if old is None else {**old, "parameters": (initial_guess or {}).get("parameters")}
@@ -127,7 +135,7 @@ def flown_guess(problem: OcpProblem, nlp, initial_guess: dict | None) -> tuple[d
     flights, notes = [], []
     theta = np.zeros(len(problem.parameters))
     for ph, b in zip(problem.phases, nlp.blocks):
-        t0, tf, theta, X, U = phase_start(problem, ph, initial_guess, stored, b.nlp.grid)
+        t0, tf, theta, X, U = phase_start(ph, initial_guess, stored, b.nlp.grid)
         t, Xf, Uf, stopped = fly(ph.problem, b.nlp.grid, t0=t0, tf=tf, theta=theta, X=X, U=U)
         flights.append({"t0": t0, "tf": tf, "t": t, "X": Xf, "U": Uf})
         notes.append({"phase": ph.name, "stopped_at_t": stopped})
@@ -146,17 +154,16 @@ def rk4_stiffness(problem: OcpProblem, nlp, guess: dict) -> dict | None:
         traj = stored[ph.name]["trajectory"]
         t = np.asarray(traj["t"], float)
         t0, tf = t[0], float(stored[ph.name].get("tf", t[-1]))
-        x, u = ca.SX.sym("x", fns.nx), ca.SX.sym("u", fns.nu)
         theta = np.array([float((guess.get("parameters") or {}).get(q.name, 0.0)) for q in b.problem.parameters])
         c = np.array([v for _, v in b.problem.constants], float)
-        ts = ca.SX.sym("t")
-        jac = ca.Function("ocp_jac", [ts, x, u], [ca.jacobian(fns.rhs(ts, x, u, theta, c, t0, tf)[:fns.nx], x)])
+        n, nx = t.size, fns.nx
+        X = np.array([traj[s.name] for s in b.problem.phase.states], float).reshape(nx, n)
+        U = np.array([traj[k.name] for k in b.problem.phase.controls], float).reshape(fns.nu, n)
+        flat = np.asarray(jacobian_function(fns).map(n)(t[None, :], X, U, theta, c, t0, tf), float)
         steps = np.diff(grid.bounds()) * (tf - t0) / grid.substeps
         k_of = grid.node_interval()
-        for j in range(t.size):
-            xj = np.array([traj[s.name][j] for s in b.problem.phase.states], float)
-            uj = np.array([traj[k.name][j] for k in b.problem.phase.controls], float)
-            J = np.asarray(jac(t[j], xj, uj), float)
+        for j in range(n):
+            J = flat[:, j * nx:(j + 1) * nx]
             if not np.all(np.isfinite(J)):
                 continue
             rate = float(np.max(np.abs(np.linalg.eigvals(J)))) if J.size else 0.0

@@ -14,11 +14,12 @@ import math
 
 import numpy as np
 
-from solvers.ocp.flown import as_stored, fly, phase_start
+from solvers.ocp.flown import as_stored, clip, fly, phase_start, within_bounds
 from solvers.ocp.grid import grid_of
 from solvers.ocp.guess import stored_phases
 from solvers.ocp.phase import positive_scale
 from solvers.ocp.problem import OcpProblem
+from solvers.ocp.scaling import control_scales, state_scales
 
 TF_FACTOR = 2.0          # a free final time is re-scaled by a factor in [1/2, 2] (log-uniform)
 STATE_BUMP = 0.25        # the states' bump, in their scales
@@ -42,8 +43,7 @@ def _level(rng: np.random.Generator, perm: np.ndarray, k: int, lo, hi, base: flo
     if lo is not None and hi is not None and hi > lo:
         n = perm.size
         return float(lo + (hi - lo) * (perm[(k - 1) % n] + rng.uniform()) / n)
-    v = base + scale * rng.standard_normal()
-    return float(np.clip(v, -np.inf if lo is None else lo, np.inf if hi is None else hi))
+    return float(clip(base + scale * rng.standard_normal(), lo, hi))
 
 
 def start_guess(problem: OcpProblem, *, index: int, starts: int, seed: int,
@@ -71,7 +71,7 @@ def start_guess(problem: OcpProblem, *, index: int, starts: int, seed: int,
     flights = []
     for ph in problem.phases:
         grid = grid_of(ph.problem)
-        t0, tf, theta0, X, U = phase_start(problem, ph, initial_guess, stored, grid)
+        t0, tf, theta0, X, U = phase_start(ph, initial_guess, stored, grid)
         theta = theta0 if theta is None else theta
         time = ph.problem.phase.time
         if time.final is None:
@@ -79,23 +79,16 @@ def start_guess(problem: OcpProblem, *, index: int, starts: int, seed: int,
             lo, hi = time.final_lower, time.final_upper
             tf = min(max(tf, -np.inf if lo is None else lo), np.inf if hi is None else hi)
         U = U.copy()
-        for i, k in enumerate(ph.problem.phase.controls):
+        for i, (k, scale) in enumerate(zip(ph.problem.phase.controls, control_scales(ph.problem))):
             base = float(np.mean(U[i])) if U.shape[1] else 0.0
-            U[i] = _level(rng, perm((ph.name, k.name)), index, k.lower, k.upper, base,
-                          k.scale or positive_scale(k.lower, k.upper))
+            U[i] = _level(rng, perm((ph.name, k.name)), index, k.lower, k.upper, base, float(scale))
         t, Xf, Uf, _ = fly(ph.problem, grid, t0=t0, tf=tf, theta=theta, X=X, U=U)
         tau = (t - t0) / max(tf - t0, 1e-300)
-        for i, s in enumerate(ph.problem.phase.states):
-            scale = s.scale or positive_scale(s.lower, s.upper, s.initial, s.final)
+        for i, scale in enumerate(state_scales(ph.problem)):
             factor = math.exp(rng.uniform(-math.log(2.0), math.log(2.0)))
-            row = Xf[i, 0] + factor * (Xf[i] - Xf[i, 0]) + rng.uniform(-STATE_BUMP, STATE_BUMP) * scale * np.sin(
+            Xf[i] = Xf[i, 0] + factor * (Xf[i] - Xf[i, 0]) + rng.uniform(-STATE_BUMP, STATE_BUMP) * float(scale) * np.sin(
                 math.pi * tau)
-            row = np.clip(row, -np.inf if s.lower is None else s.lower, np.inf if s.upper is None else s.upper)
-            if s.initial is not None:
-                row[0] = s.initial
-            if s.final is not None:
-                row[-1] = s.final
-            Xf[i] = row
+        Xf = within_bounds(ph.problem.phase.states, Xf)
         flights.append({"t0": t0, "tf": tf, "t": t, "X": Xf, "U": Uf})
     guess = as_stored(problem, flights, theta if theta is not None else np.zeros(0))
     guess["start"] = index          # not a warm start: solvers.ocp.solver starts IPOPT cold from it
