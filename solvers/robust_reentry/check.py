@@ -31,23 +31,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from statistics import NormalDist
 
 from solvers.robust_reentry.mc import TERMINAL_INDEX
+from solvers.uncertainty.confirm import K_OVERSHOOT as K_OVERSHOOT   # the rule (its tests read it here)
+from solvers.uncertainty.confirm import kept_enough, normal_share, quantile, raised_k, sampling_tolerance
 
-K_OVERSHOOT = 0.1        # added to the quantile gap when kC is raised
 SIGMA_SAFETY = 0.99      # tightened sigma limits aim 1% below the limit
 MAX_SIGMA_RATIO = 3.0    # Monte Carlo sigma over CADET's beyond which the linearization is not trusted
-_N = NormalDist()
-
-
-def normal_share(k: float) -> float:
-    """One-sided normal share of k sigma: ``Phi(k)`` (k = 3: 0.99865)."""
-    return _N.cdf(k)
-
-
-def quantile(p: float) -> float:
-    return _N.inv_cdf(p)
 
 
 @dataclass
@@ -71,12 +61,11 @@ def assess(*, summary: dict, prediction, objective_promised: float, k_objective:
            settings: LoopSettings) -> dict:
     """A round record (SI, radians) and whether the Monte Carlo agrees (``record["agrees"]``)."""
     n = int(summary["samples"])
-    z = quantile(settings.confidence)
     constraints: dict = {}
     heat = summary["path"].get("heat_rate")
     if heat is not None:
         target = settings.heat_target if settings.heat_target is not None else normal_share(k_constraint_user)
-        tol = z * math.sqrt(target * (1.0 - target) / n)
+        tol = sampling_tolerance(target, n, settings.confidence)
         k_eff = min((heat["limit"] - mu) / sd if sd > 0 else math.inf
                     for mu, sd in zip(prediction.heat_mean, prediction.heat_sigma))
         kept = float(heat["kept_fraction"])
@@ -84,7 +73,8 @@ def assess(*, summary: dict, prediction, objective_promised: float, k_objective:
             "target": target, "acceptance": target - tol, "tolerance": tol,
             "promised": normal_share(k_eff) if math.isfinite(k_eff) else 1.0,
             "monte_carlo": kept, "monte_carlo_nodes": float(heat["kept_fraction_nodes"]),
-            "k_constraint": correction.k_constraint, "agrees": kept >= target - tol}
+            "k_constraint": correction.k_constraint,
+            "agrees": kept_enough(kept, target, n, settings.confidence)}
     se = 1.0 / math.sqrt(2.0 * max(n - 1, 1))
     for name in settings.sigma_names:
         lim = sigma_limits_user.get(name)
@@ -131,7 +121,7 @@ def correct(record: dict, correction: Correction, *, samples: int) -> Correction
             continue
         if name == "heat_rate":
             kept = min(max(c["monte_carlo"], 0.5 / samples), 1.0 - 0.5 / samples)
-            k = k + max(quantile(c["target"]) - quantile(kept), 0.0) + K_OVERSHOOT
+            k = raised_k(k, quantile(c["target"]) - quantile(kept))
         else:
             q = name[len("sigma_"):]
             if not c["monte_carlo"] <= MAX_SIGMA_RATIO * c["promised"]:

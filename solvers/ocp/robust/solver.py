@@ -27,7 +27,7 @@ from solvers.ocp.solution import OcpSolution, solution_of
 from solvers.ocp.solver import WARM_IPOPT, Placed
 from solvers.ocp.solver import solve as solve_deterministic
 from solvers.ocp.trajectory import TrajectoryNLP
-from solvers.uncertainty.confirm import kept_enough, normal_share, quantile, sampling_tolerance
+from solvers.uncertainty.confirm import clipped_quantile, kept_enough, normal_share, raised_k, sampling_tolerance
 
 DENSE = 10               # RK4 steps per interval of CADET's check between the nodes
 MAX_ROUNDS = 4           # tighten-and-re-solve rounds for the robust path limits between the nodes
@@ -261,9 +261,6 @@ def confirm(rs: RobustSolution, summary: dict, rob) -> dict:
             "timing": rs.timing}
 
 
-K_OVERSHOOT = 0.1        # added to the quantile gap when a round raises the constraints' k (as robust_reentry)
-
-
 def design_and_confirm(problem, *, params: dict, run_monte_carlo, seed: int = 0, initial_guess: dict | None = None,
                        on_progress: ProgressFn | None = None, should_stop: StopFn | None = None):
     """The robust design confirmed by its Monte Carlo: ``(RobustSolution, robust block, Monte Carlo summary)``.
@@ -297,8 +294,8 @@ def design_and_confirm(problem, *, params: dict, run_monte_carlo, seed: int = 0,
         if block["confirmed"] or not short or (should_stop is not None and should_stop()):
             break
         if r < rob.rounds:
-            gap = max(quantile(c["required_fraction"]) - quantile(c["kept_fraction"]) for c in short)
-            k_c = k_c + max(gap, 0.0) + K_OVERSHOOT
+            k_c = raised_k(k_c, max(clipped_quantile(c["required_fraction"]) - clipped_quantile(c["kept_fraction"])
+                                    for c in short))
     assert block is not None
     block["rounds"] = history
     block["sigma_factor"] = rob.sigma_factor
