@@ -7,11 +7,13 @@ or Redis is unreachable the run stops with a message naming it and how to start 
 """
 from __future__ import annotations
 
+import atexit
 import os
 import random
 import signal
 import subprocess
 import sys
+import threading
 import time
 import uuid
 from pathlib import Path
@@ -56,22 +58,68 @@ def pg_url():
 
 
 RUN_LOCK_KEY = "trajlab:test-run-lock"
+# A claim lives as long as the process that holds it: renewed every RUN_LOCK_RENEW_S, released at exit,
+# and a killed run's claims lapse after RUN_LOCK_TTL_S (a four-hour lock left by killed runs once held
+# all fifteen databases and the next run could claim none).
+RUN_LOCK_TTL_S = 300
+RUN_LOCK_RENEW_S = 30
+_RENEW = "if redis.call('GET', KEYS[1]) == ARGV[1] then return redis.call('EXPIRE', KEYS[1], ARGV[2]) end return 0"
+_RELEASE = "if redis.call('GET', KEYS[1]) == ARGV[1] then return redis.call('DEL', KEYS[1]) end return 0"
+_claims: dict[str, tuple[redis.Redis, str]] = {}   # url -> (client, token), this process's live claims
+_claims_lock = threading.Lock()
+_renewer: threading.Thread | None = None
 
 
-def claim_redis_db(base_url: str, *, ttl_s: int = 4 * 3600) -> tuple[redis.Redis, str]:
+def _renew_claims() -> None:
+    while True:
+        time.sleep(RUN_LOCK_RENEW_S)
+        with _claims_lock:
+            held = list(_claims.items())
+        for url, (r, token) in held:
+            try:
+                if not r.eval(_RENEW, 1, RUN_LOCK_KEY, token, RUN_LOCK_TTL_S):
+                    with _claims_lock:
+                        _claims.pop(url, None)   # released (flushdb) or lapsed: nothing left to hold
+            except redis.RedisError:
+                pass   # a test that stops Redis on purpose; the next round tries again
+
+
+def release_redis_dbs() -> None:
+    """Give back every database this process still holds (run at exit)."""
+    with _claims_lock:
+        held = list(_claims.values())
+        _claims.clear()
+    for r, token in held:
+        try:
+            r.eval(_RELEASE, 1, RUN_LOCK_KEY, token)
+        except redis.RedisError:
+            pass
+
+
+atexit.register(release_redis_dbs)
+
+
+def claim_redis_db(base_url: str) -> tuple[redis.Redis, str]:
     """A Redis database of its own for this test run (1-15, not the shared 0).
 
     Two runs on one machine must not flush each other's queue: a run takes a
-    database whose lock key it can set with NX, and flushes only that one.
+    database whose lock key it can set with NX, and flushes only that one. The
+    claim is renewed while this process lives and given back when it exits.
     """
+    global _renewer
     base = base_url.rsplit("/", 1)[0] if base_url.rsplit("/", 1)[-1].isdigit() else base_url.rstrip("/")
     token = uuid.uuid4().hex
     for db in random.sample(range(1, 16), 15):
         url = f"{base}/{db}"
         r = redis.Redis.from_url(url, socket_connect_timeout=5)
-        if r.set(RUN_LOCK_KEY, token, nx=True, ex=ttl_s):
+        if r.set(RUN_LOCK_KEY, token, nx=True, ex=RUN_LOCK_TTL_S):
             r.flushdb()
-            r.set(RUN_LOCK_KEY, token, ex=ttl_s)
+            r.set(RUN_LOCK_KEY, token, ex=RUN_LOCK_TTL_S)
+            with _claims_lock:
+                _claims[url] = (r, token)
+                if _renewer is None:
+                    _renewer = threading.Thread(target=_renew_claims, name="redis-claims", daemon=True)
+                    _renewer.start()
             return r, url
     raise RuntimeError(f"every Redis database 1-15 at {base} is held by another test run ({RUN_LOCK_KEY})")
 
