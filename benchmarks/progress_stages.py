@@ -6,7 +6,7 @@ from each stage's announcement (:class:`solvers.progress.ProgressMessage`) to th
 each stage's share of the total, summed over the presets (a refinement or limit round counted under
 its stage's name, whatever its number).  Usage::
 
-    python -m benchmarks.progress_stages ocp       # or ocp-refined, reentry
+    python -m benchmarks.progress_stages ocp       # or ocp-refined, ocp-robust, ocp-search, reentry
 """
 from __future__ import annotations
 
@@ -26,6 +26,8 @@ CASES = {
     "ocp-refined": [("brachistochrone", {"accuracy": 1e-6, "transcription": {"intervals": 4}}),
                     ("brachistochrone", {"accuracy": 1e-6, "transcription": {"method": "lgl", "intervals": 4}}),
                     ("betts-shuttle-ocp", {"accuracy": 1e-6, "transcription": {"intervals": 50}})],
+    "ocp-robust": [("rocket-ascent-q-limit-robust", {}), ("orbit-raising-uncertain-thrust-robust", {})],
+    "ocp-search": [("brachistochrone", {"search": {"starts": 4}}), ("hang-glider", {"search": {"starts": 3}})],
     "reentry": [("betts-max-crossrange", {}), ("betts-max-crossrange-heat-limited", {}),
                 ("betts-max-crossrange", {"accuracy": 1e-4})],
 }

@@ -84,20 +84,21 @@ class WorkerJobContext:
                                       spec=spec, samples=samples, seed=seed,
                                       chunk_size=int(chunk_size or threshold), should_stop=self.should_stop)
 
-    def run_pieces(self, fn, spec: dict, count: int, *, label: str) -> list[dict]:
+    def run_pieces(self, fn, spec: dict, count: int, *, label: str, on_progress=None) -> list[dict]:
         """A job's pieces (``JobContext.run_pieces``): fanned out across the workers (``worker/pieces.py``),
         here alone without a broker."""
         from app.kinds.base import run_pieces_here
 
         if self.celery is None or count <= 1:
-            return run_pieces_here(fn, spec, count, label=label, should_stop=self.should_stop, progress=self.progress)
+            return run_pieces_here(fn, spec, count, label=label, should_stop=self.should_stop,
+                                   progress=on_progress or self.progress)
         import socket
 
         from worker import pieces
 
         return pieces.run_distributed(self.celery, redis_client(self.settings.broker_url, settings=self.settings),
                                       fn, spec, count, label=label, who=f"job@{socket.gethostname()}",
-                                      should_stop=self.should_stop, on_progress=self.progress)
+                                      should_stop=self.should_stop, on_progress=on_progress or self.progress)
 
     # --- plumbing ---------------------------------------------------------------------
     def _write(self) -> None:

@@ -53,11 +53,12 @@ class JobContext(Protocol):
 
 
     def run_pieces(self, fn: Callable[[dict, int, Callable[[], bool]], dict], spec: dict, count: int, *,
-                   label: str) -> list[dict]:
+                   label: str, on_progress: Callable[[float, str], None] | None = None) -> list[dict]:
         """``[fn(spec, i, should_stop) for i in range(count)]`` (``fn`` declared with :func:`piece`; its output
         JSON), in index order; a piece that raised is ``{"raised": "<type>: <message>"}``, so one piece's
         failure is the kind's to judge.  The service decides where they run: here, or fanned out across
-        the workers as a study's points are (``worker/pieces.py``); progress says ``"<label> i/count done"``.
+        the workers as a study's points are (``worker/pieces.py``); progress says ``"<label> i/count done"``
+        to ``on_progress`` (a stage's callback, :mod:`solvers.progress`; default the job's own).
         Raises :class:`JobCancelled` when the job is cancelled meanwhile."""
 
 
@@ -131,8 +132,9 @@ class InProcessContext:
 
         return run_monte_carlo(spec, samples, seed, chunk_size)
 
-    def run_pieces(self, fn, spec: dict, count: int, *, label: str) -> list[dict]:
-        return run_pieces_here(fn, spec, count, label=label, should_stop=self.should_stop, progress=self.progress)
+    def run_pieces(self, fn, spec: dict, count: int, *, label: str, on_progress=None) -> list[dict]:
+        return run_pieces_here(fn, spec, count, label=label, should_stop=self.should_stop,
+                               progress=on_progress or self.progress)
 
 
 class JobFailure(Exception):

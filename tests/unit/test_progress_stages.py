@@ -2,7 +2,8 @@
 its number, never past 95% before the last stage starts, never going back.
 
 The mechanism on its own (solvers.progress), then real jobs through their kind's ``run`` (as a worker
-calls it): a refined ``ocp`` job and a ``reentry`` job refined to an accuracy.
+calls it): a refined ``ocp`` job, a ``reentry`` job refined to an accuracy, a robust ``ocp`` job (twin, robust
+NLP, limit rounds, Monte Carlo, confirmation rounds) and an ``ocp`` job of several starts.
 """
 from __future__ import annotations
 
@@ -141,3 +142,33 @@ def test_the_worker_stores_the_stage_and_the_job_document_shows_it(sqlite_db):
         assert 0.6 < doc["progress"] <= CAP
         ctx.progress(0.97, "done: Solve_Succeeded")
         wait_for(None)
+
+
+@pytest.mark.slow
+def test_a_robust_ocp_job_declares_its_stages():
+    # rocket-ascent-q-limit-robust: the twin, the robust NLP, a limit round, the Monte Carlo (2000 samples)
+    # and, as measured, one confirmation round (the constraints' k raised)
+    out, messages = _run("rocket-ascent-q-limit-robust", {})
+    assert out.status == "succeeded" and out.result["robust"]["confirmed"]
+    names = _check_honest(messages)
+    assert not [m for _, m in messages if not isinstance(m, ProgressMessage)]   # every message names its stage
+    assert names[0].startswith("deterministic twin") and names[-1] == "answer"
+    for stage in ("robust build", "robust solve", "monte carlo"):
+        assert stage in names
+    rounds = out.result["robust"]["rounds"]
+    for r in range(1, len(rounds)):
+        assert f"confirmation round {r} / monte carlo" in names
+    assert f"confirmation round {len(rounds)}" not in " ".join(names)   # no round announced that did not run
+    assert max(f for f, m in messages if m.stage != "answer") <= CAP
+
+
+@pytest.mark.slow
+def test_a_search_job_declares_its_starts_and_judges_last():
+    # four starts of the brachistochrone, one after the other in this process (each a piece)
+    out, messages = _run("brachistochrone", {"search": {"starts": 4}})
+    assert out.status == "succeeded" and out.result["search"]["succeeded"] == 4
+    names = _check_honest(messages)
+    assert names == ["starts", "answer"]
+    done = [f for f, m in messages if m.stage == "starts" and "done" in m]
+    assert len(done) == 4 and done == sorted(done) and done[-1] <= CAP   # each start moves the bar, never past 95%
+    assert done[0] == pytest.approx(0.25 * 99.99 / 100, abs=1e-3)

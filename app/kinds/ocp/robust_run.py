@@ -21,8 +21,7 @@ def run_robust(params: OcpParams, ctx: JobContext, *, guess: dict | None, t_star
 
     problem = params.problem
 
-    def monte_carlo(spec, samples, seed):
-        ctx.progress(0.9, f"Monte Carlo of the design ({samples} samples)")
+    def monte_carlo(spec, samples, seed):       # its stage announced by design_and_confirm
         return ctx.run_monte_carlo(spec, samples, seed, CHUNK_SIZE)
 
     rs, block, summary = design_and_confirm(problem, params=parser_data(params), run_monte_carlo=monte_carlo, seed=SEED,

@@ -79,12 +79,17 @@ def _each(i: int, e: dict) -> dict:
 
 def run_search(params, ctx: JobContext, guess: dict | None, *, from_job: str | None) -> RunOutcome:
     """The job's several starts (module docstring)."""
+    from solvers.ocp.stages import SEARCH_PLAN
     from solvers.ocp.starts import RULE, distinct_optima, group_tolerance
+    from solvers.progress import Progress
 
     problem = params.problem
     n, sense = problem.starts, problem.objective.sense
     spec = {"params": params.model_dump(mode="json", exclude_none=False), "guess": guess, "from_job": from_job}
-    entries = ctx.run_pieces(solve_start, spec, n, label="start")
+    progress = Progress(ctx.progress, SEARCH_PLAN)
+    entries = ctx.run_pieces(solve_start, spec, n, label="start",
+                             on_progress=progress.stage("starts", message=f"{n} starts"))
+    progress.stage("answer", message="the best start")
     if any(e.get("status") == "cancelled" for e in entries) and ctx.should_stop():
         best_partial = next((e for e in entries if e.get("result")), None)
         return RunOutcome("cancelled", result=(best_partial or {}).get("result"),

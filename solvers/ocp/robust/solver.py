@@ -20,12 +20,14 @@ from types import SimpleNamespace
 import numpy as np
 
 from solvers.common import Outcome, ProgressFn, StopFn
+from solvers.progress import Progress
 from solvers.ocp.check import AGREEMENT_TOLERANCE, check_phase
 from solvers.ocp.robust.montecarlo import monte_carlo_spec
 from solvers.ocp.robust.nlp import Design, RobustNLP
 from solvers.ocp.solution import OcpSolution, solution_of
 from solvers.ocp.solver import WARM_IPOPT, Placed
 from solvers.ocp.solver import solve as solve_deterministic
+from solvers.ocp.stages import ROBUST_DESIGN_PLAN, ROBUST_PLAN, ROBUST_ROUND_PLAN
 from solvers.ocp.trajectory import TrajectoryNLP
 from solvers.uncertainty.confirm import clipped_quantile, kept_enough, normal_share, raised_k, sampling_tolerance
 
@@ -48,34 +50,41 @@ class RobustSolution:
     design: Design | None = None
 
 
-def solve_robust(problem, *, params: dict, initial_guess: dict | None = None, on_progress: ProgressFn | None = None,
-                 should_stop: StopFn | None = None, k_constraints: float | None = None,
-                 deterministic: OcpSolution | None = None) -> RobustSolution:
+def solve_robust(problem, *, params: dict, initial_guess: dict | None = None,
+                 on_progress: ProgressFn | Progress | None = None, should_stop: StopFn | None = None,
+                 k_constraints: float | None = None, deterministic: OcpSolution | None = None) -> RobustSolution:
     """The robust design of ``problem`` (its ``robust`` spec; ``params``: the problem as data, which the
     Monte Carlo's workers parse again); ``k_constraints``: the constraints' k when a confirmation round
-    raised it (default the spec's ``k``); ``deterministic``: the twin's answer when already solved."""
-    progress = on_progress or (lambda f, m: None)
+    raised it (default the spec's ``k``); ``deterministic``: the twin's answer when already solved.
+    ``on_progress``: a callback (the design's own stages, :data:`ROBUST_DESIGN_PLAN`) or the
+    :class:`Progress` of a plan with the stages ``robust build``, ``robust solve`` and ``limit`` (and
+    ``deterministic twin`` when ``deterministic`` is None), as :func:`design_and_confirm` passes."""
+    own = not isinstance(on_progress, Progress)
+    progress = on_progress if isinstance(on_progress, Progress) else Progress(on_progress, ROBUST_DESIGN_PLAN)
     rob = problem.robust
     k_c = rob.k if k_constraints is None else k_constraints
     t_start = time.perf_counter()
-    progress(0.0, "solving the deterministic twin")
-    det = deterministic or solve_deterministic(problem, initial_guess=initial_guess, should_stop=should_stop)
+    det = deterministic
+    if det is None:
+        det = solve_deterministic(problem, initial_guess=initial_guess, should_stop=should_stop,
+                                  on_progress=progress.stage("deterministic twin"))
     t_det = time.perf_counter() - t_start
     if not det.status.ok:
         det.notes.append("the deterministic twin failed: no robust design was attempted")
         return RobustSolution(solution=det, deterministic=det, timing={"deterministic_s": t_det})
-    progress(0.3, "solving the robust NLP (CADET)")
     t1 = time.perf_counter()
+    progress.stage("robust build", message=f"the robust NLP (CADET, k = {k_c:.3g} on the constraints)")
     R = RobustNLP(problem, rob)
     assert R.nlp.solver is not None   # built with its solver
     warm = {**det.phases[0], "parameters": det.parameters, "objective": det.objective}
     placed = R.place(det_warm=warm, k=rob.k, k_c=k_c)
     res = R.nlp.solver.solve(x0=placed["z0"], lbx=placed["lbz"], ubx=placed["ubz"], lbg=placed["lbg"],
-                             ubg=placed["ubg"], p=placed["p"], should_stop=should_stop, on_progress=on_progress,
-                             progress_span=(0.3, 0.8), label="robust IPOPT")
+                             ubg=placed["ubg"], p=placed["p"], should_stop=should_stop,
+                             on_progress=progress.stage("robust solve"), label="robust IPOPT")
     design = R.design(res.x, placed)
     prediction = predict(R, design, rob, k_c)
-    res, design, prediction, rounds = _hold_between_nodes(R, placed, res, design, prediction, rob, k_c, should_stop)
+    res, design, prediction, rounds = _hold_between_nodes(R, placed, res, design, prediction, rob, k_c, should_stop,
+                                                           progress=progress)
     t_rob = time.perf_counter() - t1
     sol = _mean_solution(problem, R, design, res)
     if rounds:
@@ -86,7 +95,9 @@ def solve_robust(problem, *, params: dict, initial_guess: dict | None = None, on
                         f"mean; the deterministic twin's objective is {det.objective:.6g}")
     spec = monte_carlo_spec(params, problem=problem, rob=rob, t_nodes=design.t_nodes, U=design.U,
                             x0=design.Z[:, 0], tf=design.tf, theta=design.theta) if res.status.ok else None
-    progress(0.85, "robust design solved; Monte Carlo next")
+    if own:
+        progress.stage("answer")
+        progress.done("robust design solved")
     return RobustSolution(solution=sol, deterministic=det, prediction=prediction, monte_carlo_spec=spec,
                           timing={"deterministic_s": t_det, "robust_s": t_rob, "limit_rounds": len(rounds),
                                   "robust_iterations": res.status.iterations,
@@ -94,7 +105,7 @@ def solve_robust(problem, *, params: dict, initial_guess: dict | None = None, on
 
 
 def _hold_between_nodes(R: RobustNLP, placed: dict, res, design: Design, prediction: dict, rob, k_c: float,
-                        should_stop):
+                        should_stop, *, progress: Progress):
     """Tighten-and-re-solve rounds (as :mod:`solvers.ocp.limits` for a deterministic answer): where CADET's
     ``mu +- k sigma`` of a named path constraint exceeds its bound between the nodes of an interval, that
     bound is tightened at the interval's two nodes by the excess (times ``MARGIN_GROWTH``) and the NLP
@@ -105,7 +116,7 @@ def _hold_between_nodes(R: RobustNLP, placed: dict, res, design: Design, predict
     n_rows = R.rf.n_path
     start = sum(n for name, n in R.nlp.layout if name == "defects")
     lbg, ubg = placed["lbg"].copy(), placed["ubg"].copy()
-    rounds = []
+    rounds: list[dict] = []
     for _ in range(MAX_ROUNDS):
         per = prediction.get("per_interval") or {}
         if not per or all(max(np.max(a), np.max(b)) <= HELD for a, b in per.values()):
@@ -121,7 +132,8 @@ def _hold_between_nodes(R: RobustNLP, placed: dict, res, design: Design, predict
                     lbg[start + node * n_rows + rows[j] + 1] += MARGIN_GROWTH * e_lo[i]
         r = R.nlp.solver.solve(x0=res.x, lbx=placed["lbz"], ubx=placed["ubz"], lbg=lbg, ubg=ubg, p=placed["p"],
                                lam_x0=res.lam_x, lam_g0=res.lam_g, should_stop=should_stop, expected_iterations=15,
-                               label="robust limit round")
+                               label="robust limit round",
+                               on_progress=progress.stage("limit", round=len(rounds) + 1))
         rounds.append({"status": r.status.solver_status, "iterations": r.status.iterations})
         if not r.status.ok:
             break
@@ -262,7 +274,7 @@ def confirm(rs: RobustSolution, summary: dict, rob) -> dict:
 
 
 def design_and_confirm(problem, *, params: dict, run_monte_carlo, seed: int = 0, initial_guess: dict | None = None,
-                       on_progress: ProgressFn | None = None, should_stop: StopFn | None = None):
+                       on_progress: ProgressFn | Progress | None = None, should_stop: StopFn | None = None):
     """The robust design confirmed by its Monte Carlo: ``(RobustSolution, robust block, Monte Carlo summary)``.
 
     ``run_monte_carlo(spec, samples, seed)`` runs the draws (in process, or fanned across workers by the
@@ -273,16 +285,22 @@ def design_and_confirm(problem, *, params: dict, run_monte_carlo, seed: int = 0,
     round is the answer, the rounds listed in it.
     """
     rob = problem.robust
+    progress = on_progress if isinstance(on_progress, Progress) else Progress(on_progress, ROBUST_PLAN)
     k_c, det, history = rob.k, None, []
     rs = block = summary = None
     for r in range(rob.rounds + 1):
-        rs = solve_robust(problem, params=params, initial_guess=initial_guess, on_progress=on_progress,
+        # round 0 is the plan's own stages; a confirmation round (k raised) runs them again inside its share
+        stages = progress if r == 0 else progress.within("confirmation", ROBUST_ROUND_PLAN, round=r)
+        rs = solve_robust(problem, params=params, initial_guess=initial_guess, on_progress=stages,
                           should_stop=should_stop, k_constraints=k_c, deterministic=det)
         det = rs.deterministic
         if rs.monte_carlo_spec is None:
+            progress.stage("answer")
+            progress.done(rs.solution.status.outcome.value)
             return rs, None, None
         spec = scaled_spec(rs.monte_carlo_spec, rob.sigma_factor)
         t = time.perf_counter()
+        stages.stage("monte carlo", message=f"{rob.samples} samples of the design")
         summary = run_monte_carlo(spec, rob.samples, seed)
         block = confirm(rs, summary, rob)
         block["timing"]["monte_carlo_s"] = time.perf_counter() - t
@@ -296,6 +314,8 @@ def design_and_confirm(problem, *, params: dict, run_monte_carlo, seed: int = 0,
         if r < rob.rounds:
             k_c = raised_k(k_c, max(clipped_quantile(c["required_fraction"]) - clipped_quantile(c["kept_fraction"])
                                     for c in short))
+    progress.stage("answer")
+    progress.done("confirmed" if block is not None and block["confirmed"] else "not confirmed")
     assert block is not None
     block["rounds"] = history
     block["sigma_factor"] = rob.sigma_factor
