@@ -40,7 +40,6 @@ IDLE_STOP_S = 60.0  # a monitor with no caller for this long (and Redis answerin
 # and the monitor's verdict it is the most a request loses; it answers "down" without opening the breaker
 # (a slow reply under load is not a lost broker: the monitor's PING, with its longer bound, decides that).
 REQUEST_BOUND_S = 0.25
-_REDIS_SCHEMES = ("redis://", "rediss://", "redis+socket://")
 
 
 def describe(exc: BaseException) -> str:
@@ -61,20 +60,15 @@ def unreachable(exc: BaseException) -> bool:
 class BrokerBreaker:
     """Whether this process may use Redis now (module docstring)."""
 
-    def __init__(self, broker_url: str, settings: Settings, *, interval_s: float, timeout_s: float,
-                 log: logging.Logger):
-        self.broker_url, self.settings = broker_url, settings
+    def __init__(self, broker_url: str, *, interval_s: float, timeout_s: float, log: logging.Logger):
+        self.broker_url = broker_url
         self.interval_s, self.timeout_s, self.log = interval_s, timeout_s, log
         self._open_since: float | None = None
-        self._reason = ""
         self._last_use = time.monotonic()
         self._lock = threading.Lock()
         self._wake = threading.Event()
-        self._closed = threading.Event()
-        self._closed.set()
         self._callbacks: list[Callable[[], None]] = []
         self._monitor: threading.Thread | None = None
-        self._client = None
         self._watching = False
 
     # --- what callers ask -----------------------------------------------------------------
@@ -84,14 +78,6 @@ class BrokerBreaker:
         self._last_use = time.monotonic()
         self._ensure_monitor()
         return self._open_since is not None
-
-    def down_for_s(self) -> float | None:
-        since = self._open_since
-        return None if since is None else time.monotonic() - since
-
-    @property
-    def reason(self) -> str:
-        return self._reason
 
     def call(self, fn: Callable[[], T], default: T, *, trip: bool = True) -> T:
         """``fn()`` (a Redis call), or ``default`` at once while the breaker is open; a call that finds Redis
@@ -115,10 +101,8 @@ class BrokerBreaker:
             if self._open_since is not None:
                 return
             self._open_since = time.monotonic()
-            self._reason = f"{type(exc).__name__}: {exc}"[:200]
-            self._closed.clear()
-        self.log.warning("broker unreachable (%s); PINGed every %.1f s until it answers", self._reason,
-                         self.interval_s)
+        self.log.warning("broker unreachable (%s); PINGed every %.1f s until it answers",
+                         f"{type(exc).__name__}: {exc}"[:200], self.interval_s)
         self._ensure_monitor()
         self._wake.set()
 
@@ -127,35 +111,21 @@ class BrokerBreaker:
         self._watching = True
         self._ensure_monitor()
 
-    def wait_closed(self, timeout: float) -> bool:
-        return self._closed.wait(timeout)
-
     def on_close(self, callback: Callable[[], None]) -> None:
         """Run ``callback()`` (in the monitor's thread) each time the breaker closes."""
         with self._lock:
             self._callbacks.append(callback)
 
     # --- the monitor ----------------------------------------------------------------------------
-    def _probe_client(self):
-        if self._client is None:
-            from redis.backoff import NoBackoff
-            from redis.retry import Retry
-
-            from app.service.broker import redis_client
-
-            # no retry and no idle-connection check: one PING, one bound
-            self._client = redis_client(self.broker_url, settings=self.settings, socket_timeout=self.timeout_s,
-                                        socket_connect_timeout=self.timeout_s, retry=Retry(NoBackoff(), 0),
-                                        health_check_interval=0)
-        return self._client
-
     def probe(self) -> bool:
         """One PING within ``timeout_s``; opens or closes the breaker by its outcome."""
-        if not self.broker_url.startswith(_REDIS_SCHEMES):
+        from app.service.broker import REDIS_SCHEMES, bounded_client
+
+        if not self.broker_url.startswith(REDIS_SCHEMES):
             self._close()  # nothing to PING (another transport): Celery's own errors are the only signal
             return True
         try:
-            self._probe_client().ping()
+            bounded_client(self.broker_url, self.timeout_s).ping()
         except Exception as exc:
             self.trip(exc)
             return False
@@ -167,9 +137,8 @@ class BrokerBreaker:
             since = self._open_since
             if since is None:
                 return
-            self._open_since, self._reason = None, ""
+            self._open_since = None
             callbacks = list(self._callbacks)
-            self._closed.set()
         self.log.warning("broker reachable again after %.1f s", time.monotonic() - since)
         for callback in callbacks:
             try:
@@ -212,7 +181,7 @@ def for_process(settings: Settings, *, role: str = "api", interval_s: float | No
             breaker = _breakers.get(key)
             if breaker is None:
                 breaker = _breakers[key] = BrokerBreaker(
-                    settings.broker_url, settings, log=logging.getLogger(f"trajlab.{role}"),
+                    settings.broker_url, log=logging.getLogger(f"trajlab.{role}"),
                     interval_s=settings.broker_probe_interval_s if interval_s is None else interval_s,
                     timeout_s=settings.broker_probe_timeout_s if timeout_s is None else timeout_s)
     return breaker

@@ -18,6 +18,7 @@ checks both against Celery's own message).  Other broker URLs go through Celery.
 from __future__ import annotations
 
 import base64
+import functools
 import json
 import os
 import re
@@ -99,16 +100,37 @@ def redis_options(settings: Settings) -> dict:
             "health_check_interval": settings.redis_health_check_interval_s}
 
 
+# The broker URLs that are Redis (kombu's ``redis+socket:///path`` is redis-py's unix socket); any other
+# transport goes through Celery.
+REDIS_SCHEMES = ("redis://", "rediss://", "redis+socket://")
+
+
 def redis_client(broker_url: str, *, settings: Settings | None = None, **kwargs):
-    """A redis-py client for the broker URL with :func:`redis_options` (``kwargs`` override them);
-    kombu's ``redis+socket:///path`` is redis-py's unix socket."""
+    """A redis-py client for the broker URL with :func:`redis_options` (``kwargs`` override them)."""
+    return _connect(broker_url, {**redis_options(settings or get_settings()), **kwargs})
+
+
+def _connect(broker_url: str, options: dict):
     import redis
 
-    options = {**redis_options(settings or get_settings()), **kwargs}
     if broker_url.startswith("redis+socket://"):
-        options.pop("socket_keepalive", None)  # a unix socket has no TCP keepalive
+        options = {k: v for k, v in options.items() if k != "socket_keepalive"}  # a unix socket has no TCP keepalive
         return redis.Redis(unix_socket_path=broker_url.removeprefix("redis+socket://"), **options)
     return redis.Redis.from_url(broker_url, **options)
+
+
+@functools.lru_cache(maxsize=8)
+def bounded_client(broker_url: str, timeout_s: float):
+    """The client of a call that answers within ``timeout_s`` or counts as unanswered (the breaker's PING,
+    ``/readyz``'s write, ``/metrics``' reads): one connect and one reply bounded by ``timeout_s``, no retry
+    and no idle-connection PING before it (each would add a wait to the bound).  One per process, URL and
+    bound (the client's pool is thread-safe and made anew in a forked child)."""
+    from redis.backoff import NoBackoff
+    from redis.retry import Retry
+
+    return _connect(broker_url, {"socket_timeout": timeout_s, "socket_connect_timeout": timeout_s,
+                                 "socket_keepalive": True, "health_check_interval": 0,
+                                 "retry": Retry(NoBackoff(), 0)})
 
 
 def refusal(exc: BaseException) -> str:
@@ -123,7 +145,6 @@ def refusal(exc: BaseException) -> str:
 
 
 RUN_JOB_TASK = "trajlab.run_job"
-_REDIS_SCHEMES = ("redis://", "rediss://", "redis+socket://")
 _publishers: dict[str, object] = {}
 _publishers_lock = threading.Lock()
 
@@ -176,7 +197,7 @@ def publish_job(app: Celery, settings: Settings, *, job_id: str, attempt: int, k
     soft = time_limit_s(settings, kind)
     hard = soft + settings.hard_time_limit_margin_s
     broker_url = str(app.conf.broker_url or settings.broker_url)
-    if broker_url.startswith(_REDIS_SCHEMES):
+    if broker_url.startswith(REDIS_SCHEMES):
         _redis_publisher(broker_url).lpush(queue, job_message(job_id, attempt, queue=queue, soft_time_limit_s=soft,
                                                               time_limit_s=hard))
         return

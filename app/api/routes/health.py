@@ -18,7 +18,6 @@ Each component is "up" or says what is wrong in words that carry no address, pat
 """
 from __future__ import annotations
 
-import functools
 import logging
 
 from fastapi import APIRouter
@@ -30,12 +29,11 @@ from app.runtime.disk import storage_checks
 from app.runtime.settings import Settings
 from app.service import breaker as breakers
 from app.service import lease
-from app.service.broker import redis_client, refusal
+from app.service.broker import REDIS_SCHEMES, bounded_client, refusal
 
 router = APIRouter(tags=["health"])
 log = logging.getLogger("trajlab.health")
 READY_KEY = "trajlab:readyz"
-_REDIS_SCHEMES = ("redis://", "rediss://", "redis+socket://")
 
 
 @router.get("/healthz")
@@ -43,17 +41,8 @@ def healthz():
     return {"status": "ok"}
 
 
-@functools.lru_cache(maxsize=4)
-def _redis(broker_url: str, socket_timeout_s: float, connect_timeout_s: float):
-    from redis.backoff import NoBackoff
-    from redis.retry import Retry
-
-    return redis_client(broker_url, socket_timeout=socket_timeout_s, socket_connect_timeout=connect_timeout_s,
-                        retry=Retry(NoBackoff(), 0))
-
-
 def _broker(settings: Settings, celery) -> str:
-    if not settings.broker_url.startswith(_REDIS_SCHEMES):
+    if not settings.broker_url.startswith(REDIS_SCHEMES):
         with celery.connection_for_write() as conn:
             conn.ensure_connection(max_retries=1, timeout=2)
         return "up"
@@ -65,7 +54,7 @@ def _broker(settings: Settings, celery) -> str:
     if breaker.open:
         return "down"  # the breaker logged it
     bound = min(settings.broker_probe_timeout_s, breakers.REQUEST_BOUND_S)
-    r = _redis(settings.broker_url, bound, bound)
+    r = bounded_client(settings.broker_url, bound)
     try:
         if not breaker.call(lambda: r.set(READY_KEY, "1", ex=10), False, trip=False):
             log.warning("readiness: broker did not answer within %.1f s", bound)

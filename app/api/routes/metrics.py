@@ -14,7 +14,7 @@ from app.api.access import principal_before_body
 from app.api.observability import exposition
 from app.kinds import KIND_NAMES
 from app.service import breaker as breakers
-from app.service.broker import redis_client
+from app.service.broker import bounded_client
 from app.service.metrics import ServiceCollector
 
 router = APIRouter(tags=["health"])
@@ -24,13 +24,9 @@ def _collector(request: Request) -> ServiceCollector:
     state = request.app.state
     if getattr(state, "metrics_collector", None) is None:  # one Redis client per process, made on first scrape
         settings = state.settings
-        # the probe's bound, and the process's breaker: a scrape during a broker loss is not held up by it
-        from redis.backoff import NoBackoff
-        from redis.retry import Retry
-
+        # the request's bound, and the process's breaker: a scrape during a broker loss is not held up by it
         bound = min(settings.broker_probe_timeout_s, breakers.REQUEST_BOUND_S)
-        client = redis_client(settings.broker_url, settings=settings, socket_timeout=bound, socket_connect_timeout=bound,
-                              retry=Retry(NoBackoff(), 0))
+        client = bounded_client(settings.broker_url, bound)
         state.metrics_collector = ServiceCollector(state.db, client, KIND_NAMES, breaker=breakers.for_process(settings))
     return state.metrics_collector
 
