@@ -31,6 +31,10 @@ import threading
 import time
 import uuid
 from collections import OrderedDict, deque
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from app.service.breaker import BrokerBreaker
 
 log = logging.getLogger(__name__)
 
@@ -83,28 +87,31 @@ class FailedKeyAttempts:
 class SharedKeyAttempts:
     """The failures of every API process, per address, in Redis; the process's own count while Redis is down."""
 
-    def __init__(self, redis, *, max_failures: int, window_s: float, breaker=None):
+    def __init__(self, redis, *, max_failures: int, window_s: float, breaker: BrokerBreaker):
         self.redis, self.max_failures, self.window_s = redis, max_failures, window_s
-        self.breaker = breaker  # app.service.breaker.BrokerBreaker, or None: only REDIS_RETRY_S after an error
+        self.breaker = breaker
         self.local = FailedKeyAttempts(max_failures=max_failures, window_s=window_s)
         self._redis_down_until = 0.0
 
     def _shared(self, fn):
-        """``fn()`` against Redis, or None (use the local count) when Redis is down or did not answer."""
-        from redis.exceptions import RedisError, ResponseError
+        """``fn()`` against Redis, or None (use the local count): while the breaker is open, when Redis does
+        not answer (the breaker's call opens it: every Redis user of this process knows it now), and for
+        ``REDIS_RETRY_S`` after a refusal."""
+        from redis.exceptions import RedisError
 
-        if (self.breaker is not None and self.breaker.open) or time.monotonic() < self._redis_down_until:
+        if self.breaker.open or time.monotonic() < self._redis_down_until:
             return None
         try:
-            return fn()
-        except (RedisError, OSError) as exc:
-            if self.breaker is not None and not isinstance(exc, ResponseError):
-                self.breaker.trip(exc)  # unreachable: every Redis user of this process knows it now
-            else:
-                self._redis_down_until = time.monotonic() + REDIS_RETRY_S
-            log.warning("failed API-key attempts counted per process: Redis did not answer (%s)",
-                        type(exc).__name__)
-            return None
+            result = self.breaker.call(fn, None)  # fn never returns None: None is the breaker's "not answered"
+        except RedisError as exc:  # answered, but refused (OOM, MISCONF): the breaker stays closed
+            self._redis_down_until = time.monotonic() + REDIS_RETRY_S
+            why = type(exc).__name__
+        else:
+            if result is not None:
+                return result
+            why = "unreachable"
+        log.warning("failed API-key attempts counted per process: Redis did not answer (%s)", why)
+        return None
 
     def retry_after_s(self, address: str) -> int | None:
         """Seconds until ``address`` may try a key again, or None if it may now."""
