@@ -61,7 +61,8 @@ EVENTS = {
 
 @functools.lru_cache(maxsize=4)
 def client(broker_url: str):
-    """This process's Redis client for metrics (the broker's database), made on first use."""
+    """This process's Redis client for metrics (the broker's database), made on first use and reused by every
+    metric write of the process (app.service.metrics_buffer batches consecutive writes of one client)."""
     return redis_client(broker_url)
 
 

@@ -140,9 +140,12 @@ class Recovery:
         purged = self.retention.run_if_due(self.db)
         if purged is not None:
             done["purged_jobs"], done["purged_studies"] = purged["jobs"], purged["studies"]
-        metrics.count(self.redis, "reaped", done["requeued"])
-        metrics.count(self.redis, "republished", done["republished"])
-        metrics.beat(self.redis)  # a complete pass: trajlab_recovery_heartbeat_timestamp_seconds
+        # the process's metrics client: the buffer batches consecutive writes of one client, so the pass's
+        # counts go in one batch with the jobs' of a process that also runs jobs (trajlab serve)
+        r = metrics.client(self.settings.broker_url)
+        metrics.count(r, "reaped", done["requeued"])
+        metrics.count(r, "republished", done["republished"])
+        metrics.beat(r)  # a complete pass: trajlab_recovery_heartbeat_timestamp_seconds
         return done
 
     def run_forever(self) -> None:
