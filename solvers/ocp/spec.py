@@ -16,9 +16,10 @@ it stores a job, and loads no numpy or CasADi for that.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 from solvers.ocp import phases_spec
-from solvers.ocp.expressions import OcpInputError, Scope
+from solvers.ocp.expressions import Boundary, OcpInputError, Scope, walk
 from solvers.ocp.phase_spec import Shared, declarations, parse_phase, time_spec
 from solvers.ocp.problem import NamedPhase, Objective, OcpProblem, PhaseProblem, PhaseTime, TableDecl, TimeSpec
 from solvers.ocp.robust.spec import parse_robust
@@ -64,39 +65,55 @@ def parse_problem(params: dict, limits: OcpLimits = DEFAULT_LIMITS) -> OcpProble
         raise OcpInputError(f"{P}.objective.sense", f"'{sense}' is neither 'minimize' nor 'maximize'")
     if objective.get("expr") is None and objective.get("integrand") is None:
         raise OcpInputError(f"{P}.objective", "give expr (Mayer term), integrand (Lagrange term) or both")
-    if several:
-        if params.get("uncertainty") is not None or params.get("robust") is not None:
-            raise OcpInputError(f"{P}.robust", "robust design of several phases is not done yet (issue 37): "
-                                               "pose the problem as one phase")
-        return _several(params, shared, objective, limits)
     if shared.starts > 1 and (params.get("uncertainty") is not None or params.get("robust") is not None):
         # each start would be a robust solve and its Monte Carlo: search first, then design from the best
         raise OcpInputError(f"{P}.search.starts", "several starts of a robust design are not done: search the "
                                                   "deterministic problem (search.starts), then warm-start the "
                                                   "robust design from its best answer (initial_guess.from_job)")
+    if several:
+        problem = _several(params, shared, objective, limits)
+        return replace(problem, robust=_robust(params, problem, limits))
     time = time_spec(object_at(params.get("time"), f"{P}.time"), f"{P}.time")
     one = parse_phase(params, path=P, shared=shared, time=time, objective=objective, limits=limits, mayer=True)
     window = PhaseTime(initial=time.initial, final=time.final, final_lower=time.final_lower,
                        final_upper=time.final_upper, final_guess=time.final_guess)
-    return OcpProblem(title=shared.title, constants=shared.constants, tables=shared.tables,
+    problem = OcpProblem(title=shared.title, constants=shared.constants, tables=shared.tables,
                       parameters=shared.parameters, phases=(NamedPhase("", window, one),), objective=one.objective,
                       from_job=one.phase.guess.from_job, plots=_plots(params, [one]), accuracy=shared.accuracy,
                       accuracy_required=shared.accuracy_required, single=True, starts=shared.starts,
-                      seed=shared.seed,
-                      robust=_robust(params, one, limits))
+                      seed=shared.seed)
+    return replace(problem, robust=_robust(params, problem, limits))
 
 
-def _robust(params: dict, one: PhaseProblem, limits: OcpLimits):
-    """``uncertainty`` and ``robust`` (:mod:`solvers.ocp.robust.spec`) of a problem posed as one phase."""
-    ph, obj = one.phase, one.objective
-    if ph.transcription.method != "multiple_shooting" and (params.get("uncertainty") or params.get("robust")):
-        raise OcpInputError("params.transcription.method", "robust design is transcribed by multiple shooting "
-                                                           "only (LGL is not done yet, issue 37)")
-    trees = [*ph.dynamics, *(e for _, e in ph.expressions), *(c.expr for c in ph.path),
-             *(c.expr for c in ph.boundary), *(e for e in (obj.expr, obj.integrand) if e is not None)]
-    return parse_robust(params, constants=dict(one.constants), states=ph.state_names, trees=trees,
-                        path_names=tuple(c.name for c in ph.path), boundary_names=tuple(c.name for c in ph.boundary),
-                        sense=obj.sense, max_samples=limits.max_monte_carlo_samples)
+def _robust(params: dict, problem: OcpProblem, limits: OcpLimits):
+    """``uncertainty`` and ``robust`` (:mod:`solvers.ocp.robust.spec`) of the problem, one phase or several:
+    the initial sigmas name the first phase's states, the robust constraints any phase's path or boundary
+    constraints (a name in several phases is held in each)."""
+    if params.get("uncertainty") is None and params.get("robust") is None:
+        return None
+    for i, named in enumerate(problem.phases):
+        if named.problem.phase.transcription.method != "multiple_shooting":
+            at = "params" if problem.single else f"params.phases.{i}"
+            raise OcpInputError(f"{at}.transcription.method", "robust design is transcribed by multiple shooting "
+                                                              "only (LGL is not done yet, issue 37)")
+    for j, lk in enumerate(problem.links):
+        if any(isinstance(n, Boundary) for n in walk(lk.expr)):
+            # a jump relates the draws' states by an equation the covariance and the Monte Carlo would have to
+            # solve per sample; links of times alone hold for the plan
+            raise OcpInputError(f"params.links.{j}", "robust design with a link of states (initial(), final()) "
+                                                     "is not done yet (issue 37): only the default continuity of "
+                                                     "states and links of times carry the covariance")
+    trees, path, boundary = [], [], []
+    for named in problem.phases:
+        ph, obj = named.problem.phase, named.problem.objective
+        trees += [*ph.dynamics, *(e for _, e in ph.expressions), *(c.expr for c in ph.path),
+                  *(c.expr for c in ph.boundary), *(e for e in (obj.expr, obj.integrand) if e is not None)]
+        path += [c.name for c in ph.path]
+        boundary += [c.name for c in ph.boundary]
+    trees += [lk.expr for lk in problem.links] + ([problem.objective.expr] if problem.objective.expr else [])
+    return parse_robust(params, constants=dict(problem.constants), states=problem.phases[0].problem.phase.state_names,
+                        trees=trees, path_names=tuple(dict.fromkeys(path)), boundary_names=tuple(dict.fromkeys(boundary)),
+                        sense=problem.objective.sense, max_samples=limits.max_monte_carlo_samples)
 
 
 def _shared(params: dict, limits: OcpLimits) -> Shared:

@@ -29,7 +29,7 @@ import numpy as np
 
 from solvers.ocp.phase import Element, PhaseNLP, positive_scale, solver_of_elements
 from solvers.ocp.problem import OcpProblem, PhaseProblem
-from solvers.ocp.symbolic import functions_of, to_sx
+from solvers.ocp.symbolic import PhaseFunctions, functions_of, to_sx
 from solvers.transcription.nlp import cached_solver
 
 TF_MIN_FRACTION = 1e-6      # a phase lasts at least this fraction of its time scale
@@ -58,12 +58,17 @@ class Block:
 class TrajectoryNLP:
     """The assembled NLP of an :class:`OcpProblem` (module docstring)."""
 
-    def __init__(self, mp: OcpProblem, *, ipopt: dict | None = None):
+    def __init__(self, mp: OcpProblem, *, ipopt: dict | None = None, functions: list[PhaseFunctions] | None = None,
+                 structure: tuple | None = None, build: bool = True):
+        """``functions``: each phase's SX functions when they are not the problem's own (the robust phases of
+        :mod:`solvers.ocp.robust`, their events element then the subclass's), with ``structure`` the cache
+        key's structure; ``build=False``: the blocks and layout only, no solver (an answer to check)."""
         self.mp = mp
         self.sign = -1.0 if mp.objective.sense == "maximize" else 1.0
+        fns = functions or [functions_of(ph.problem) for ph in mp.phases]
         if mp.single:
             ph = mp.phases[0]
-            nlp = PhaseNLP(ph.problem, functions_of(ph.problem), ipopt=ipopt)
+            nlp = PhaseNLP(ph.problem, fns[0], ipopt=ipopt, build=build, structure=structure)
             self.blocks: list[Block] = [Block(ph.name, ph.problem, nlp, np.arange(nlp.nz), None, slice(0, nlp.np_))]
             self.nz, self.np_, self.links_p = nlp.nz, nlp.np_, slice(nlp.np_, nlp.np_)
             self.solver, self.was_cached, self.layout = nlp.solver, nlp.was_cached, nlp.layout
@@ -71,8 +76,8 @@ class TrajectoryNLP:
         nth = len(mp.parameters)
         self.blocks = []
         col, pos = nth, 0
-        for ph in mp.phases:
-            nlp = PhaseNLP(ph.problem, functions_of(ph.problem), build=False)
+        for ph, f in zip(mp.phases, fns):
+            nlp = PhaseNLP(ph.problem, f, build=False)
             rest = nlp.nz - 1 - nth
             colmap = np.concatenate([[col + 1], np.arange(nth), col + 2 + np.arange(rest)]).astype(int)
             self.blocks.append(Block(ph.name, ph.problem, nlp, colmap, col, slice(pos, pos + nlp.np_)))
@@ -81,7 +86,11 @@ class TrajectoryNLP:
         self.nz = col
         self.links_p = slice(pos, pos + len(mp.links))
         self.np_ = pos + len(mp.links)
-        key = ("ocp-multiphase", mp.structure(), tuple(sorted((ipopt or {}).items())))
+        if not build:
+            self.solver, self.was_cached = None, False
+            self.layout = [(el.name, el.ny * el.count) for el in self._elements() if el.ny]
+            return
+        key = ("ocp-multiphase", structure or mp.structure(), tuple(sorted((ipopt or {}).items())))
         self.solver, self.was_cached = cached_solver(
             key, lambda: solver_of_elements(self._elements(), nz=self.nz, np_=self.np_, name="ocp_multiphase",
                                             ipopt=ipopt or {}))

@@ -79,7 +79,7 @@ def monte_carlo_model(params: dict) -> MCModel:
             return rk.run_chunk(v, x0=x0, s=s, t_nodes=t_nodes, controls=controls, substeps=substeps,
                                 kept_nodes=kept_nodes, path=tuple(path))
     return MCModel(nx=NX, nu=NU, ns=2, rhs=rhs,
-                   terminal=lambda x: {n: x[i] for i, n in enumerate(STATE_NAMES)}, path=path,
+                   terminal=lambda x, **_: {n: x[i] for i, n in enumerate(STATE_NAMES)}, path=path,
                    trace=trace, sampled_terminal=tuple(TERMINAL_INDEX), kernel=kernel)
 
 

@@ -56,7 +56,9 @@ class MCModel:
     """What the Monte Carlo needs to know about a system (numpy, SI, radians).
 
     ``rhs(x, u, s)``: x (nx, N), u (nu, N), s (ns, N) -> (nx, N).
-    ``terminal(x)``: dict of named terminal quantities, each (N,).
+    ``terminal(x, x0=, s=)``: dict of named terminal quantities, each (N,), from the final states and each
+    sample's draw (initial state and parameters: an objective in initial values or in an uncertain constant,
+    as an ``ocp`` problem's Mayer term may be; a model that needs neither ignores them).
     ``trace(x, u, s)``: optional dict of named quantities, each (N,), recorded over time for plots;
     ``sampled_terminal``: names of ``terminal`` quantities kept per sample for plots.
     """
@@ -73,9 +75,6 @@ class MCModel:
     # kernel(x0=, s=, t_nodes=, controls=, substeps=, kept_nodes=) -> (xf, worst_fine, worst_node,
     # traces), the last three dicts by path or trace name; the same RK4, steps and checks.
     kernel: Callable[..., tuple] | None = None
-    # True: ``terminal(x, x0=, s=)`` also sees each sample's initial state and parameters (an objective
-    # in initial values or in an uncertain constant, as an ``ocp`` problem's Mayer term may be)
-    terminal_of_draw: bool = False
 
 
 _REGISTRY: dict[str, Callable[[dict], MCModel]] = {}
@@ -250,7 +249,7 @@ def simulate_chunk(spec: dict, seed: int, start_index: int, count: int) -> dict:
         else:
             xf = propagate(model, x0=x0, s=s, t_nodes=spec["t_nodes"], controls=spec["controls"],
                            substeps=substeps, on_step=on_step)
-        term = model.terminal(xf, x0=x0, s=s) if model.terminal_of_draw else model.terminal(xf)
+        term = model.terminal(xf, x0=x0, s=s)
     ok = np.all(np.isfinite(xf), axis=0)
     out: dict = {"count": int(count), "failed": int(count - ok.sum()), "terminal": {}, "within": {},
                  "path": {}}

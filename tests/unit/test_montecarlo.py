@@ -23,18 +23,18 @@ def _oscillator_rhs(x, u, s):
 def _oscillator(params):
     return MCModel(
         nx=2, nu=1, ns=1, rhs=_oscillator_rhs,
-        terminal=lambda x: {"pos": x[0], "vel": x[1]},
+        terminal=lambda x, **_: {"pos": x[0], "vel": x[1]},
         path={"pos": PathConstraint(fn=lambda x, u, s: x[0], limit=float(params.get("pos_limit", 1.05)))},
     )
 
 
 def _decay(params):
-    return MCModel(nx=1, nu=1, ns=1, rhs=lambda x, u, s: -s[0] * x, terminal=lambda x: {"x": x[0]})
+    return MCModel(nx=1, nu=1, ns=1, rhs=lambda x, u, s: -s[0] * x, terminal=lambda x, **_: {"x": x[0]})
 
 
 def _traced_oscillator(params):
     return MCModel(
-        nx=2, nu=1, ns=1, rhs=_oscillator_rhs, terminal=lambda x: {"pos": x[0], "vel": x[1]},
+        nx=2, nu=1, ns=1, rhs=_oscillator_rhs, terminal=lambda x, **_: {"pos": x[0], "vel": x[1]},
         trace=lambda x, u, s: {"pos": x[0], "energy": 0.5 * x[1] ** 2 + 0.5 * K0 * (1.0 + s[0]) * x[0] ** 2},
         sampled_terminal=("pos",))
 

@@ -98,10 +98,10 @@ def test_the_service_model_refuses_at_the_field_with_the_setting():
     assert OcpParams.model_validate(copy.deepcopy(LINEAR)).problem.robust.k == 2.0
 
 
-def test_robust_design_of_several_phases_is_refused_as_not_done():
-    body = copy.deepcopy(PRESETS["two-stage-ascent"]["params"])
+def test_robust_design_of_several_phases_with_a_jump_is_refused_as_not_done():
+    body = copy.deepcopy(PRESETS["two-stage-ascent"]["params"])      # its stage drop links m across phases
     body["uncertainty"] = {"parameters": {"g": {"distribution": "normal", "sigma": 0.01}}}
-    _refused(body, "params.robust", "several phases")
+    _refused(body, "params.links.0", "not done")
 
 
 # --- 2. CADET through the user's dynamics: the closed form ---------------------------------------------------

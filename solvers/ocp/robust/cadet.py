@@ -43,30 +43,34 @@ class Layout:
     indices and sigmas, and which path and boundary constraints are held at mean +- k sigma."""
 
     s_index: tuple[int, ...]          # uncertain constants, in c
-    x0_index: tuple[int, ...]         # states with an initial sigma
+    x0_index: tuple[int, ...]         # states with an initial sigma (the first phase's; none in a later one)
     robust_path: tuple[bool, ...]
     robust_boundary: tuple[bool, ...]
     objective_sign: float             # -1, 0, +1
     nq: int
+    r0: int                           # whitened initial sigmas: the first columns of S, in every phase
+    objective: bool = True            # the phase's events carry the objective (a problem posed as one phase)
 
     @property
     def ns(self) -> int:
         return len(self.s_index)
 
-    @property
-    def r0(self) -> int:
-        return len(self.x0_index)
 
-
-def layout_of(problem: OcpProblem, rob: RobustSpec, fns: PhaseFunctions) -> Layout:
-    ph = problem.phases[0].problem.phase
+def layout_of(problem: OcpProblem, rob: RobustSpec, fns: PhaseFunctions, index: int = 0) -> Layout:
+    """Phase ``index``'s layout: the sensitivities' columns ``w = [xi; ds]`` are the problem's, shared by
+    every phase (the same draw flies through all of them); the initial sigmas sit on the first phase's
+    states; a phase of several carries no objective (the events over all phases do,
+    :mod:`solvers.ocp.robust.phases`)."""
+    ph = problem.phases[index].problem.phase
     cnames = [n for n, _ in problem.constants]
     by = set(rob.constraints)
+    first = problem.phases[0].problem.phase
     return Layout(s_index=tuple(cnames.index(p.name) for p in rob.parameters),
-                  x0_index=tuple(ph.state_names.index(s.state) for s in rob.initial),
+                  x0_index=tuple(first.state_names.index(s.state) for s in rob.initial) if index == 0 else (),
                   robust_path=tuple(c.name in by for c in ph.path),
                   robust_boundary=tuple(c.name in by for c in ph.boundary),
-                  objective_sign=rob.objective_sign, nq=fns.nq)
+                  objective_sign=rob.objective_sign if problem.single else 0.0, nq=fns.nq, r0=len(rob.initial),
+                  objective=problem.single)
 
 
 class RobustFunctions:
@@ -146,12 +150,12 @@ class RobustFunctions:
         pathf = ca.Function("robust_path", args, [ca.vertcat(*rows) if rows else ca.SX.zeros(0)], names, ["g"])
         named = b.named(t, z[:b.nx], u, theta, c, t0, tf)
         namedf = ca.Function("robust_named", args, [named], names, ["e"])
-        events = self._events(eps)
+        events = self._events()
         return PhaseFunctions(rhs=rhs, path=pathf, named=namedf, events=events, nx=nz, nu=b.nu,
                               ntheta=b.ntheta, nc=self.nc_aug, nq=0, npath=self.n_path,
                               nboundary=self.n_boundary)
 
-    def _events(self, _eps) -> ca.Function:
+    def _events(self) -> ca.Function:
         b, lay, cad = self.base, self.lay, self.cad
         nz, nx, ns, r0 = cad.layout.nz, b.nx, lay.ns, lay.r0
         t0, tf = ca.SX.sym("t0"), ca.SX.sym("tf")
@@ -162,8 +166,10 @@ class RobustFunctions:
         # the event functions of deviations: x0, xf and s symbolic, evaluated at the means
         x0s, xfs, ss = ca.SX.sym("x0", self.n), ca.SX.sym("xf", self.n), ca.SX.sym("s", ns)
         bvals, mayer = b.events(t0, tf, x0s[:nx], xfs[:nx], u0, uf, theta, self.with_s(c, ss))
-        if lay.nq:
+        if lay.nq and lay.objective:
             mayer = mayer + xfs[nx]
+        if not lay.objective:
+            mayer = ca.SX(0)
         out = ca.vertcat(bvals, mayer)
         J0, Jf, Js = ca.jacobian(out, x0s), ca.jacobian(out, xfs), ca.jacobian(out, ss)
         mu_s = ca.vertcat(*[c[i] for i in lay.s_index]) if ns else ca.SX.zeros(0)

@@ -2,7 +2,7 @@
 :mod:`solvers.ocp.robust.spec`, carried by :class:`solvers.ocp.problem.OcpProblem`).  Standard library only."""
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 DEFAULT_K = 3.0
 DEFAULT_SAMPLES = 2000
@@ -47,15 +47,3 @@ class RobustSpec:
     def objective_sign(self) -> float:
         """-1, 0 or +1: the objective is mean + sign k sigma."""
         return {"mean_minus_k_sigma": -1.0, "mean": 0.0, "mean_plus_k_sigma": 1.0}[self.objective]
-
-    def with_sigmas_scaled(self, factor: float) -> RobustSpec:
-        """The same design question with every sigma multiplied (a dispersion study, the not_robust test)."""
-        params = []
-        for p in self.parameters:
-            if p.distribution == "uniform":
-                half = 0.5 * (p.upper - p.lower) * factor   # type: ignore[operator]
-                params.append(replace(p, lower=p.mean - half, upper=p.mean + half, sigma=p.sigma * factor))
-            else:
-                params.append(replace(p, sigma=p.sigma * factor))
-        return replace(self, parameters=tuple(params),
-                       initial=tuple(replace(s, sigma=s.sigma * factor) for s in self.initial))

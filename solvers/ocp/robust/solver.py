@@ -22,10 +22,11 @@ import numpy as np
 from solvers.common import Outcome, ProgressFn, StopFn
 from solvers.progress import Progress
 from solvers.ocp.check import AGREEMENT_TOLERANCE, check_phase
+from solvers.ocp.phase import positive_scale
 from solvers.ocp.robust.montecarlo import monte_carlo_spec
 from solvers.ocp.robust.nlp import Design, RobustNLP
 from solvers.ocp.solution import OcpSolution, solution_of
-from solvers.ocp.solver import WARM_IPOPT, Placed
+from solvers.ocp.solver import Placed
 from solvers.ocp.solver import solve as solve_deterministic
 from solvers.ocp.stages import ROBUST_DESIGN_PLAN, ROBUST_PLAN, ROBUST_ROUND_PLAN
 from solvers.ocp.trajectory import TrajectoryNLP
@@ -48,14 +49,28 @@ class RobustSolution:
     monte_carlo_spec: dict | None = None
     timing: dict = field(default_factory=dict)
     design: Design | None = None
+    built: Built | None = None            # the NLPs, for a confirmation round
+
+
+class Built:
+    """What a job builds once and every confirmation round reuses: the robust NLP (a round that raises the
+    constraints' k changes a parameter) and the deterministic NLP's layout and numbers on which the
+    design's mean is checked (no solver: it is only re-flown)."""
+
+    def __init__(self, problem, rob):
+        self.R = RobustNLP(problem, rob)
+        self.check_nlp = TrajectoryNLP(problem, build=False)
+        self.check_placed = Placed(problem, self.check_nlp, None)
 
 
 def solve_robust(problem, *, params: dict, initial_guess: dict | None = None,
                  on_progress: ProgressFn | Progress | None = None, should_stop: StopFn | None = None,
-                 k_constraints: float | None = None, deterministic: OcpSolution | None = None) -> RobustSolution:
+                 k_constraints: float | None = None, deterministic: OcpSolution | None = None,
+                 built: Built | None = None) -> RobustSolution:
     """The robust design of ``problem`` (its ``robust`` spec; ``params``: the problem as data, which the
     Monte Carlo's workers parse again); ``k_constraints``: the constraints' k when a confirmation round
-    raised it (default the spec's ``k``); ``deterministic``: the twin's answer when already solved.
+    raised it (default the spec's ``k``); ``deterministic``: the twin's answer when already solved;
+    ``built``: the NLPs when already built (a confirmation round).
     ``on_progress``: a callback (the design's own stages, :data:`ROBUST_DESIGN_PLAN`) or the
     :class:`Progress` of a plan with the stages ``robust build``, ``robust solve`` and ``limit`` (and
     ``deterministic twin`` when ``deterministic`` is None), as :func:`design_and_confirm` passes."""
@@ -74,34 +89,34 @@ def solve_robust(problem, *, params: dict, initial_guess: dict | None = None,
         return RobustSolution(solution=det, deterministic=det, timing={"deterministic_s": t_det})
     t1 = time.perf_counter()
     progress.stage("robust build", message=f"the robust NLP (CADET, k = {k_c:.3g} on the constraints)")
-    R = RobustNLP(problem, rob)
+    built = built or Built(problem, rob)
+    R = built.R
     assert R.nlp.solver is not None   # built with its solver
-    warm = {**det.phases[0], "parameters": det.parameters, "objective": det.objective}
-    placed = R.place(det_warm=warm, k=rob.k, k_c=k_c)
+    placed = R.place(det=det, k=rob.k, k_c=k_c)
     res = R.nlp.solver.solve(x0=placed["z0"], lbx=placed["lbz"], ubx=placed["ubz"], lbg=placed["lbg"],
                              ubg=placed["ubg"], p=placed["p"], should_stop=should_stop,
                              on_progress=progress.stage("robust solve"), label="robust IPOPT")
     design = R.design(res.x, placed)
-    prediction = predict(R, design, rob, k_c)
+    prediction = predict(R, design, rob, k_c, z=res.x, p=placed["p"])
     res, design, prediction, rounds = _hold_between_nodes(R, placed, res, design, prediction, rob, k_c, should_stop,
                                                            progress=progress)
     t_rob = time.perf_counter() - t1
-    sol = _mean_solution(problem, R, design, res)
+    sol = _mean_solution(problem, built, design, res)
     if rounds:
         sol.notes.append(f"robust path limits tightened where CADET's mean +- k sigma exceeded them between the "
                          f"nodes: {len(rounds)} round(s)")
     prediction.pop("per_interval", None)
     sol.notes.insert(0, f"robust design (CADET, k = {rob.k:g}, objective {rob.objective}): the trajectory is the "
                         f"mean; the deterministic twin's objective is {det.objective:.6g}")
-    spec = monte_carlo_spec(params, problem=problem, rob=rob, t_nodes=design.t_nodes, U=design.U,
-                            x0=design.Z[:, 0], tf=design.tf, theta=design.theta) if res.status.ok else None
+    spec = monte_carlo_spec(params, problem=problem, rob=rob, design=design) if res.status.ok else None
     if own:
         progress.stage("answer")
         progress.done("robust design solved")
     return RobustSolution(solution=sol, deterministic=det, prediction=prediction, monte_carlo_spec=spec,
                           timing={"deterministic_s": t_det, "robust_s": t_rob, "limit_rounds": len(rounds),
                                   "robust_iterations": res.status.iterations,
-                                  "deterministic_iterations": det.status.iterations}, design=design)
+                                  "deterministic_iterations": det.status.iterations}, design=design,
+                          built=built)
 
 
 def _hold_between_nodes(R: RobustNLP, placed: dict, res, design: Design, prediction: dict, rob, k_c: float,
@@ -110,11 +125,8 @@ def _hold_between_nodes(R: RobustNLP, placed: dict, res, design: Design, predict
     ``mu +- k sigma`` of a named path constraint exceeds its bound between the nodes of an interval, that
     bound is tightened at the interval's two nodes by the excess (times ``MARGIN_GROWTH``) and the NLP
     re-solved from its answer; at most ``MAX_ROUNDS``."""
-    g = R.grid
     assert R.nlp.solver is not None
-    rows = _path_rows(R)
-    n_rows = R.rf.n_path
-    start = sum(n for name, n in R.nlp.layout if name == "defects")
+    starts = R.path_starts()
     lbg, ubg = placed["lbg"].copy(), placed["ubg"].copy()
     rounds: list[dict] = []
     for _ in range(MAX_ROUNDS):
@@ -123,13 +135,15 @@ def _hold_between_nodes(R: RobustNLP, placed: dict, res, design: Design, predict
             break
         if should_stop is not None and should_stop():
             break
-        for j, (e_hi, e_lo) in per.items():
+        for (ip, j), (e_hi, e_lo) in per.items():
+            start, n_rows, row = starts[ip], R.phases[ip].rf.n_path, _path_rows(R.phases[ip].lay)[j]
+            assert start is not None
             for i in np.flatnonzero(e_hi > HELD):
                 for node in (i, i + 1):
-                    ubg[start + node * n_rows + rows[j]] -= MARGIN_GROWTH * e_hi[i]
+                    ubg[start + node * n_rows + row] -= MARGIN_GROWTH * e_hi[i]
             for i in np.flatnonzero(e_lo > HELD):
                 for node in (i, i + 1):
-                    lbg[start + node * n_rows + rows[j] + 1] += MARGIN_GROWTH * e_lo[i]
+                    lbg[start + node * n_rows + row + 1] += MARGIN_GROWTH * e_lo[i]
         r = R.nlp.solver.solve(x0=res.x, lbx=placed["lbz"], ubx=placed["ubz"], lbg=lbg, ubg=ubg, p=placed["p"],
                                lam_x0=res.lam_x, lam_g0=res.lam_g, should_stop=should_stop, expected_iterations=15,
                                label="robust limit round",
@@ -139,106 +153,120 @@ def _hold_between_nodes(R: RobustNLP, placed: dict, res, design: Design, predict
             break
         res = r
         design = R.design(res.x, placed)
-        prediction = predict(R, design, rob, k_c)
-    del g
+        prediction = predict(R, design, rob, k_c, z=res.x, p=placed["p"])
     return res, design, prediction, rounds
 
 
-def _mean_solution(problem, R: RobustNLP, design: Design, res) -> OcpSolution:
-    """The design's mean as an ``ocp`` answer: checked and reported as a deterministic one (no costates:
-    the deterministic optimality conditions do not apply to a robust design)."""
-    nlp = TrajectoryNLP(problem, ipopt=WARM_IPOPT)
-    placed = Placed(problem, nlp, None)
-    b, num = nlp.blocks[0], placed.nums[0]
-    nx = R.rf.base.nx
-    z = b.nlp.pack(design.tf, design.theta, design.Z[:nx], design.U)
-    check = check_phase(b, num, z, t0=R.php.phase.time.initial, agreement=problem.accuracy or AGREEMENT_TOLERANCE,
-                        single=True, mult=None)
+def _mean_solution(problem, built: Built, design: Design, res) -> OcpSolution:
+    """The design's mean as an ``ocp`` answer: every phase checked and reported as a deterministic one (no
+    costates: the deterministic optimality conditions do not apply to a robust design)."""
+    nlp, placed = built.check_nlp, built.check_placed
+    checks = []
+    for b, num, P, d in zip(nlp.blocks, placed.nums, built.R.phases, design.phases):
+        nx = P.rf.base.nx
+        z = b.nlp.pack(d.tf, d.theta, d.Z[:nx], d.U)
+        checks.append(check_phase(b, num, z, t0=d.t0, agreement=problem.accuracy or AGREEMENT_TOLERANCE,
+                                  single=problem.single, mult=None))
     status = res.status
-    if status.ok and not check.ok:
+    if status.ok and not all(c.ok for c in checks):
         status.outcome = Outcome.FAILED
-        status.message += "; " + check.verification.message
+        status.message += "; " + "; ".join(c.label + c.verification.message for c in checks if not c.ok)
     return solution_of(problem, nlp=nlp, res=SimpleNamespace(f=float(res.f)), status=status,
-                       checks=[check], rounds=[])
+                       checks=checks, rounds=[])
 
 
-def predict(R: RobustNLP, design: Design, rob, k_c: float) -> dict:
+def predict(R: RobustNLP, design: Design, rob, k_c: float, *, z=None, p=None) -> dict:
     """CADET's objective mean and sigma, and per named constraint the worst ``mu +- k sigma`` at the nodes
-    and between them (``DENSE`` steps per interval) against its bounds (scaled excess, <= 0 held)."""
-    rf, g = R.rf, R.grid
-    ph = R.php.phase
-    c_aug = R.constants(rob.k, k_c, R.eps_default() * 0.0)
-    t0 = ph.time.initial
-    Z, tf, th = design.Z, design.tf, design.theta
-    Un = R.nlp.node_controls(design.U)
-    mu, var = rf.objective_moments(t0, tf, Z[:, 0], Z[:, -1], Un[:, 0], Un[:, -1], th, c_aug)
+    and between them (``DENSE`` steps per interval) against its bounds (scaled excess, <= 0 held), over
+    every phase that has it."""
+    if R.problem.single:
+        P, d = R.phases[0], design.phases[0]
+        c_aug = R.constants(rob.k, k_c, R.eps_default(0) * 0.0)
+        Un = P.det.node_controls(d.U)
+        mu, var = P.rf.objective_moments(d.t0, d.tf, d.Z[:, 0], d.Z[:, -1], Un[:, 0], Un[:, -1], d.theta, c_aug)
+    else:
+        cols, _ = R.nlp.event_columns()
+        assert R.objective_moments is not None
+        mu, var = R.objective_moments(np.asarray(z)[cols], p)
     out: dict = {"objective": {"mean": float(mu), "std": float(np.sqrt(max(float(var), 0.0)))}, "constraints": {}}
+    per_interval: dict[tuple, tuple] = {}
+    out["per_interval"] = per_interval
+    for ip, (P, d) in enumerate(zip(R.phases, design.phases)):
+        _predict_phase(R, ip, P, d, rob, k_c, out["constraints"], per_interval)
+    return out
+
+
+def _worse(old: dict | None, new: dict, key: str) -> dict:
+    return new if old is None or new[key] > old[key] else old
+
+
+def _predict_phase(R: RobustNLP, ip: int, P, d, rob, k_c: float, cons: dict, per_interval: dict) -> None:
+    rf, g = P.rf, P.grid
+    ph = P.php.phase
+    c_aug = R.constants(rob.k, k_c, R.eps_default(ip) * 0.0)
+    t0, Z, tf, th = d.t0, d.Z, d.tf, d.theta
+    Un = P.det.node_controls(d.U)
+    phase = {} if R.problem.single else {"phase": P.name}
     bm, bv = rf.boundary_moments(t0, tf, Z[:, 0], Z[:, -1], Un[:, 0], Un[:, -1], th, c_aug)
     bm, bv = np.asarray(bm, float).ravel(), np.asarray(bv, float).ravel()
     for j, cn in enumerate(ph.boundary):
         if cn.name in rob.constraints:
             sd = float(np.sqrt(max(bv[j], 0.0)))
-            out["constraints"][cn.name] = {"kind": "boundary", "mean": float(bm[j]), "std": sd,
-                                           "excess_scaled": _excess(bm[j] + k_c * sd, bm[j] - k_c * sd, cn)}
+            cons[cn.name] = _worse(cons.get(cn.name), {"kind": "boundary", "mean": float(bm[j]), "std": sd,
+                                                       "excess_scaled": _excess(bm[j] + k_c * sd, bm[j] - k_c * sd,
+                                                                                cn), **phase}, "excess_scaled")
     named = [(j, cn) for j, cn in enumerate(ph.path) if cn.name in rob.constraints]
-    per_interval: dict[int, tuple] = {}
-    out["per_interval"] = per_interval
-    if named:
-        F = R.interval(1)
-        rows = _path_rows(R)
-        worst = {cn.name: (-np.inf, -np.inf) for _, cn in named}
-        ts, zs, us = [], [], []
-        for i in range(g.intervals):
-            ta, tb = design.t_nodes[i], design.t_nodes[i + 1]
-            ua = design.U[:, min(i, design.U.shape[1] - 1)]
-            ub = design.U[:, min(i + 1, design.U.shape[1] - 1)] if g.control == "linear" else ua
-            z = Z[:, i]
-            for j in range(DENSE + 1):
-                f = j / DENSE
-                ts.append(ta + f * (tb - ta))
-                zs.append(z)
-                us.append(ua + f * (ub - ua))
-                if j < DENSE:
-                    h = (tb - ta) / DENSE
-                    u1, u2 = ua + f * (ub - ua), ua + (f + 1.0 / DENSE) * (ub - ua)
-                    z = np.asarray(F(z, u1, u2, ts[-1], h, th, c_aug, t0, tf)[0], float).ravel()
-        T, Zd, Ud = np.array(ts), np.array(zs).T, np.array(us).T
-        P = np.asarray(rf.fns.path.map(T.size)(T[None, :], Zd, Ud, th, c_aug, t0, tf), float)
-        is_node = np.zeros(T.size, bool)
-        is_node[::DENSE + 1] = True
-        is_node[DENSE::DENSE + 1] = True
-        for j, cn in named:
-            hi, lo = P[rows[j]], P[rows[j] + 1]
-            e_hi, e_lo = _excess_v(hi, None, cn), _excess_v(None, lo, cn)
-            e = np.maximum(e_hi, e_lo)
-            per_interval[j] = (e_hi.reshape(g.intervals, DENSE + 1).max(axis=1),
-                               e_lo.reshape(g.intervals, DENSE + 1).max(axis=1))
-            worst[cn.name] = (float(np.max(e[is_node])), float(np.max(e)))
-            out["constraints"][cn.name] = {"kind": "path", "excess_scaled_nodes": worst[cn.name][0],
-                                           "excess_scaled_dense": worst[cn.name][1],
-                                           "held_between_nodes": bool(worst[cn.name][1] <= 1e-3)}
-    return out
+    if not named:
+        return
+    F = P.interval(1)
+    rows = _path_rows(P.lay)
+    ts, zs, us = [], [], []
+    for i in range(g.intervals):
+        ta, tb = d.t_nodes[i], d.t_nodes[i + 1]
+        ua = d.U[:, min(i, d.U.shape[1] - 1)]
+        ub = d.U[:, min(i + 1, d.U.shape[1] - 1)] if g.control == "linear" else ua
+        z = Z[:, i]
+        for j in range(DENSE + 1):
+            f = j / DENSE
+            ts.append(ta + f * (tb - ta))
+            zs.append(z)
+            us.append(ua + f * (ub - ua))
+            if j < DENSE:
+                h = (tb - ta) / DENSE
+                u1, u2 = ua + f * (ub - ua), ua + (f + 1.0 / DENSE) * (ub - ua)
+                z = np.asarray(F(z, u1, u2, ts[-1], h, th, c_aug, t0, tf)[0], float).ravel()
+    T, Zd, Ud = np.array(ts), np.array(zs).T, np.array(us).T
+    Pv = np.asarray(rf.fns.path.map(T.size)(T[None, :], Zd, Ud, th, c_aug, t0, tf), float)
+    is_node = np.zeros(T.size, bool)
+    is_node[::DENSE + 1] = True
+    is_node[DENSE::DENSE + 1] = True
+    for j, cn in named:
+        hi, lo = Pv[rows[j]], Pv[rows[j] + 1]
+        e_hi, e_lo = _excess_v(hi, None, cn), _excess_v(None, lo, cn)
+        e = np.maximum(e_hi, e_lo)
+        per_interval[(ip, j)] = (e_hi.reshape(g.intervals, DENSE + 1).max(axis=1),
+                                 e_lo.reshape(g.intervals, DENSE + 1).max(axis=1))
+        dense = float(np.max(e))
+        cons[cn.name] = _worse(cons.get(cn.name), {"kind": "path", "excess_scaled_nodes": float(np.max(e[is_node])),
+                                                   "excess_scaled_dense": dense,
+                                                   "held_between_nodes": bool(dense <= 1e-3), **phase},
+                               "excess_scaled_dense")
 
 
-def _path_rows(R: RobustNLP) -> dict[int, int]:
+def _path_rows(lay) -> dict[int, int]:
     """The first row of each path constraint in the augmented path function."""
     rows, r = {}, 0
-    for j, robust in enumerate(R.lay.robust_path):
+    for j, robust in enumerate(lay.robust_path):
         rows[j] = r
         r += 2 if robust else 1
     return rows
 
 
-def _scale(cn) -> float:
-    mags = [abs(v) for v in (cn.lower, cn.upper) if v is not None and v != 0.0]
-    return max(mags) if mags else 1.0
-
-
 def _excess_v(hi, lo, cn) -> np.ndarray:
     """Scaled excess of the upper row over ``upper`` (or of ``lower`` over the lower row); -inf if unbounded."""
     if hi is not None:
-        return (np.asarray(hi) - cn.upper) / _scale(cn) if cn.upper is not None else np.full(np.shape(hi), -np.inf)
-    return (cn.lower - np.asarray(lo)) / _scale(cn) if cn.lower is not None else np.full(np.shape(lo), -np.inf)
+        return (np.asarray(hi) - cn.upper) / positive_scale(cn.lower, cn.upper) if cn.upper is not None else np.full(np.shape(hi), -np.inf)
+    return (cn.lower - np.asarray(lo)) / positive_scale(cn.lower, cn.upper) if cn.lower is not None else np.full(np.shape(lo), -np.inf)
 
 
 def _excess(hi: float, lo: float, cn) -> float:
@@ -287,13 +315,13 @@ def design_and_confirm(problem, *, params: dict, run_monte_carlo, seed: int = 0,
     rob = problem.robust
     progress = on_progress if isinstance(on_progress, Progress) else Progress(on_progress, ROBUST_PLAN)
     k_c, det, history = rob.k, None, []
-    rs = block = summary = None
+    rs = block = summary = built = None
     for r in range(rob.rounds + 1):
         # round 0 is the plan's own stages; a confirmation round (k raised) runs them again inside its share
         stages = progress if r == 0 else progress.within("confirmation", ROBUST_ROUND_PLAN, round=r)
         rs = solve_robust(problem, params=params, initial_guess=initial_guess, on_progress=stages,
-                          should_stop=should_stop, k_constraints=k_c, deterministic=det)
-        det = rs.deterministic
+                          should_stop=should_stop, k_constraints=k_c, deterministic=det, built=built)
+        det, built = rs.deterministic, rs.built       # every later round reuses both
         if rs.monte_carlo_spec is None:
             progress.stage("answer")
             progress.done(rs.solution.status.outcome.value)
