@@ -130,3 +130,17 @@ def test_an_lgl_phase_of_a_robust_problem_is_refused_at_its_transcription():
     with pytest.raises(OcpInputError) as exc:
         parse_problem(body)
     assert exc.value.path == "params.phases.1.transcription.method"
+
+
+def test_a_robust_job_of_two_phases_succeeds_through_the_kind_with_its_phases_and_robust_block():
+    from app.kinds.ocp.kind import run
+    from app.kinds.ocp.params import OcpParams
+    from app.kinds.ocp.result import OcpResult
+    from tests.support import RecordingContext
+
+    out = run(OcpParams.model_validate(copy.deepcopy(TWO)), RecordingContext())
+    assert out.status == "succeeded", out.error
+    assert [p["name"] for p in out.result["phases"]] == ["a", "b"]
+    assert out.result["robust"]["confirmed"] is True
+    assert out.result["robust"]["constraints"]["v_max"]["cadet"]["phase"] == "b"      # where it binds
+    OcpResult.model_validate(out.result)
