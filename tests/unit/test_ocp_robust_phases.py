@@ -144,3 +144,17 @@ def test_a_robust_job_of_two_phases_succeeds_through_the_kind_with_its_phases_an
     assert out.result["robust"]["confirmed"] is True
     assert out.result["robust"]["constraints"]["v_max"]["cadet"]["phase"] == "b"      # where it binds
     OcpResult.model_validate(out.result)
+
+
+def test_the_monte_carlo_model_is_built_once_per_design_and_again_for_another():
+    from solvers.ocp.robust.montecarlo import monte_carlo_model, monte_carlo_spec
+    from solvers.ocp.robust.nlp import Design, PhaseDesign
+
+    problem = parse_problem(copy.deepcopy(TWO))
+    phases = [PhaseDesign(t0=t0, tf=t0 + 0.5, theta=np.zeros(0), Z=np.zeros((3, 1)), U=np.zeros((1, 10)),
+                          t_nodes=np.linspace(t0, t0 + 0.5, 11)) for t0 in (0.0, 0.5)]
+    spec = monte_carlo_spec(TWO, problem=problem, rob=problem.robust, design=Design(phases))
+    assert monte_carlo_model(spec["model_params"]) is monte_carlo_model(copy.deepcopy(spec["model_params"]))
+    phases[1].U = np.ones((1, 10))
+    other = monte_carlo_spec(TWO, problem=problem, rob=problem.robust, design=Design(phases))
+    assert monte_carlo_model(other["model_params"]) is not monte_carlo_model(spec["model_params"])
