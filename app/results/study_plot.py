@@ -40,7 +40,6 @@ class TradeChart:
     ``repeated``: another panel's series again, or the swept value itself)."""
 
     title: str
-    x_key: str
     x_label: str
     panels: list[TradePanel]
     failed_x: list = field(default_factory=list)

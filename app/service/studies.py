@@ -22,6 +22,7 @@ from __future__ import annotations
 import copy
 import itertools
 from dataclasses import dataclass
+from typing import Iterator
 
 import numpy as np
 from sqlalchemy import select
@@ -339,25 +340,31 @@ def summary(db: Database, study: Study) -> dict:
 
 def trade_table(db: Database, study: Study) -> list[dict]:
     """One row per point: swept values, status, the kind's key numbers, the job id (and warm start source)."""
+    return [row for row, _ in trade_rows(db, study)]
+
+
+def trade_rows(db: Database, study: Study) -> Iterator[tuple[dict, dict | None]]:
+    """Each point's :func:`trade_table` row with the result its key numbers were read from (a succeeded
+    point's; None for the others), one at a time: a study's results together may be large."""
     all_jobs = point_jobs(db, study.id)
     with db.read() as session:
         latest = best_by_index(all_jobs, objective_values(session, study.kind, all_jobs))
     field = WARM_START_FIELD.get(study.kind)
-    rows = []
     for point in study.points:
         job = latest.get(point["index"])
         row = {"index": point["index"], **point["values"], "status": job.status if job else "pending",
                "job_id": job.id if job else None,
                "jobs": sum(1 for j in all_jobs if j.study_index == point["index"])}
+        result = None
         if job is not None:
             if field:
                 row["warm_start_from"] = _from_job(job.params, field)
             if job.status == "succeeded":
-                row.update(key_numbers(study.kind, jobs.get_result(db, job.id)))
+                result = jobs.get_result(db, job.id)
+                row.update(key_numbers(study.kind, result))
             elif job.error:
                 row["error_code"] = job.error.get("code")
-        rows.append(row)
-    return rows
+        yield row, result
 
 
 def on_point_finished(db: Database, job_id: str) -> list[Job]:

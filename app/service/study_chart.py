@@ -15,8 +15,7 @@ from app.kinds.trade import TradeOutput, axis_label, name_label, name_unit
 from app.results.study_plot import TradeChart, TradeLine, TradePanel
 from app.runtime.db import Database
 from app.runtime.models import Study
-from app.service import jobs
-from app.service.studies import sweep_paths, trade_table
+from app.service.studies import sweep_paths, trade_rows
 
 MAX_PANELS = 6
 # An output whose spread over the points is within this share of its magnitude is constant: far above
@@ -110,7 +109,7 @@ def chart(*, kind_spec, title: str, sweeps: list[dict], rows: list[dict], result
                 panel.lines.append(TradeLine(", ".join(names) or None, [x for x, _ in pts],
                                              [float(y) for _, y in pts]))
     charted = {o.key for o in outputs if (o.panel or o.key) in panels} | set(constant) | set(repeated)
-    return TradeChart(title=title, x_key=x_key, x_label=_swept(kind_spec, params, paths),
+    return TradeChart(title=title, x_label=_swept(kind_spec, params, paths),
                       panels=list(panels.values())[:MAX_PANELS],
                       failed_x=[r[x_key] for r in rows if r.get("status") == "failed"],
                       table_only=[c for c in columns if c not in charted], constant=constant,
@@ -121,9 +120,12 @@ def trade_chart(db: Database, study: Study) -> TradeChart:
     """The chart of a stored study, its units read from its first succeeded point."""
     from app.kinds import KINDS
 
-    rows = trade_table(db, study)
-    first = next((r for r in rows if r.get("status") == "succeeded" and r.get("job_id")), None)
-    result = jobs.get_result(db, first["job_id"]) if first else None
+    rows: list[dict] = []
+    first, result = None, None
+    for row, stored in trade_rows(db, study):  # the table's own read of the first point's result, kept
+        rows.append(row)
+        if first is None and row.get("status") == "succeeded" and row.get("job_id"):
+            first, result = row, stored
     point = next((p for p in study.points if first and p["index"] == first["index"]), None)
     params = point["params"] if point else study.base_params
     return chart(kind_spec=KINDS.get(study.kind), title=f"study {study.label or study.id[:8]}: "
