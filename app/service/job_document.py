@@ -26,6 +26,11 @@ def _error(error: dict | None) -> dict | None:
                                        "details": error.get("details")}
 
 
+def stage_of(job) -> dict | None:
+    """The stage a job announced (``schemas.JobStage``), as the job document and its event stream give it."""
+    return None if job.stage is None else {"name": job.stage, "round": job.stage_round}
+
+
 def job_to_dict(job: Job) -> dict:
     """The job document of the API (``schemas.JobOut``'s fields, in its order, JSON-ready)."""
     return _document(job, job.params)
@@ -40,7 +45,7 @@ def _document(job, params) -> dict:
         "status": job.status,
         "progress": job.progress,
         "message": job.message,
-        "stage": None if job.stage is None else {"name": job.stage, "round": job.stage_round},
+        "stage": stage_of(job),
         "created_at": _iso(job.created_at),
         "started_at": _iso(job.started_at),
         "finished_at": _iso(job.finished_at),

@@ -21,6 +21,7 @@ from fastapi.concurrency import run_in_threadpool
 from fastapi.sse import EventSourceResponse, ServerSentEvent
 
 from app.service import jobs
+from app.service.job_document import stage_of
 from app.api.access import PrincipalDep, visible_job
 from app.api.deps import DatabaseDep, SettingsDep
 from app.runtime.models import FINAL_STATUSES, JOB_STATUSES, Job
@@ -39,7 +40,7 @@ def state_id(job: Job) -> str:
 def event_of(job: Job) -> ServerSentEvent:
     final = job.status in FINAL_STATUSES
     data = {"id": job.id, "status": job.status, "progress": job.progress, "message": job.message,
-            "stage": None if job.stage is None else {"name": job.stage, "round": job.stage_round},
+            "stage": stage_of(job),
             "attempts": job.attempts, "error": job.error}
     return ServerSentEvent(event="end" if final else "progress", id=state_id(job), data=data, retry=RETRY_MS)
 
