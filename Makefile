@@ -9,12 +9,6 @@ PORT   ?= $(or $(TRAJLAB_PORT),8000)
 # `make run` prints how long it took to the first /healthz (scripts/first_healthz.py)
 MAKE_STARTED := $(shell date +%s.%N)
 
-# Bytecode caches (__pycache__, ignored by git) on, whatever the shell says: with PYTHONDONTWRITEBYTECODE
-# set (some shells and CI images set it) every Python process compiles each module it imports from source,
-# 7.4 s of CPU for the worker's imports against 3.0 s from the caches, and the suite starts a few hundred
-# (workers, recovery loops, CLIs, the services of the fault tests).  Empty means unset to Python.
-export PYTHONDONTWRITEBYTECODE :=
-
 .PHONY: run test check lint install install-test bench clean lock guide
 
 # Installs follow the lock, uv.lock: every transitive dependency at one version with its hashes, so two

@@ -15,9 +15,11 @@ os.environ.setdefault("TRAJLAB_AUTH", "off")
 # No C compiles in the suite's solves (solvers/transcription/jit.py: `trajlab serve` turns them on
 # for its worker); tests/unit/test_jit.py sets the mode itself.
 os.environ.setdefault("TRAJLAB_JIT", "off")
-# Bytecode caches on for this process and every process it starts, also when pytest is run without the
-# Makefile (which does the same): under PYTHONDONTWRITEBYTECODE each worker, recovery loop and CLI the
-# suite starts compiles its imports from source (7.4 s of CPU against 3.0 s for the worker's imports).
+# Bytecode caches (__pycache__, ignored by git) on for this process and every process it starts, whatever
+# the shell says (some shells and CI images set PYTHONDONTWRITEBYTECODE), by make test/check or pytest run
+# directly: under it each worker, recovery loop and CLI the suite starts (a few hundred, the fault tests'
+# services among them) compiles its imports from source (7.4 s of CPU against 3.0 s for the worker's
+# imports), and collection recompiles every test module.  Here once, for both ways of running the suite.
 os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
 sys.dont_write_bytecode = False
 
