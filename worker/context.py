@@ -82,7 +82,8 @@ class WorkerJobContext:
 
         return fanout.run_distributed(self.celery, redis_client(self.settings.broker_url, settings=self.settings),
                                       spec=spec, samples=samples, seed=seed,
-                                      chunk_size=int(chunk_size or threshold), should_stop=self.should_stop)
+                                      chunk_size=int(chunk_size or threshold), should_stop=self.should_stop,
+                                      job=self.bounds())
 
     def run_pieces(self, fn, spec: dict, count: int, *, label: str, on_progress=None) -> list[dict]:
         """A job's pieces (``JobContext.run_pieces``): fanned out across the workers (``worker/pieces.py``),
@@ -98,7 +99,13 @@ class WorkerJobContext:
 
         return pieces.run_distributed(self.celery, redis_client(self.settings.broker_url, settings=self.settings),
                                       fn, spec, count, label=label, who=f"job@{socket.gethostname()}",
-                                      should_stop=self.should_stop, on_progress=on_progress or self.progress)
+                                      should_stop=self.should_stop, on_progress=on_progress or self.progress,
+                                      job=self.bounds())
+
+    def bounds(self) -> dict:
+        """What a share of this job's work run by another worker process needs to be held to its bounds
+        (worker.tasks: its guard): the job, the attempt a breach fails, and its deadline on the wall clock."""
+        return {"id": self.job_id, "attempt": self.attempt, "ends_at": time.time() + (self.deadline - time.monotonic())}
 
     # --- plumbing ---------------------------------------------------------------------
     def _write(self) -> None:

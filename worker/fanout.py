@@ -10,11 +10,12 @@ simply recomputed by the job after a grace period, and a duplicate is harmless.
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import socket
 import time
 import uuid
-from typing import Callable
+from typing import Callable, ContextManager
 
 import redis
 
@@ -32,16 +33,24 @@ def _keys(run_id: str) -> tuple[str, str, str]:
     return f"{base}:spec", f"{base}:results", f"{base}:claim"
 
 
-def compute_chunk(r: redis.Redis, run_id: str, index: int, start: int, count: int, seed: int,
-                  *, who: str) -> bool:
-    """Claim and compute one chunk; False if someone else already has it."""
+def _job_key(run_id: str) -> str:
+    return f"trajlab:mc:{run_id}:job"
+
+
+def compute_chunk(r: redis.Redis, run_id: str, index: int, start: int, count: int, seed: int, *, who: str,
+                  guarded: Callable[[dict | None], ContextManager] = lambda job: contextlib.nullcontext()) -> bool:
+    """Claim and compute one chunk; False if someone else already has it.  ``guarded(job)``: the bounds
+    the chunk runs under, given the job it belongs to (``run_distributed``'s ``job``; the job's own process
+    passes none, its guard is around it already)."""
     spec_key, results_key, claim_key = _keys(run_id)
     if not r.set(f"{claim_key}:{index}", who, nx=True, ex=KEY_TTL_S):
         return False
     raw = r.get(spec_key)
     if raw is None:  # the run finished or expired: nothing to do
         return False
-    partial = simulate_chunk(json.loads(raw), seed, start, count)
+    job = r.get(_job_key(run_id))
+    with guarded(None if job is None else json.loads(job)):
+        partial = simulate_chunk(json.loads(raw), seed, start, count)
     r.hset(results_key, str(index), json.dumps({"by": who, "partial": partial}))
     r.expire(results_key, KEY_TTL_S)
     return True
@@ -50,11 +59,15 @@ def compute_chunk(r: redis.Redis, run_id: str, index: int, start: int, count: in
 def run_distributed(celery, r: redis.Redis, *, spec: dict, samples: int, seed: int, chunk_size: int,
                     should_stop: Callable[[], bool] = lambda: False,
                     on_progress: Callable[[float, str], None] | None = None,
-                    grace_s: float = 60.0) -> dict:
-    """Run ``samples`` samples in chunks of ``chunk_size`` across workers; merged summary."""
+                    grace_s: float = 60.0, job: dict | None = None) -> dict:
+    """Run ``samples`` samples in chunks of ``chunk_size`` across workers; merged summary.  ``job``
+    (``{"id", "attempt", "ends_at"}``): the job the run belongs to, whose bounds hold the chunks other
+    workers compute (``worker.tasks.mc_chunk``)."""
     run_id = uuid.uuid4().hex
     spec_key, results_key, claim_key = _keys(run_id)
     ranges = [(i, a, min(chunk_size, samples - a)) for i, a in enumerate(range(0, samples, chunk_size))]
+    if job is not None:  # before the spec: a chunk that finds the spec finds its job
+        r.set(_job_key(run_id), json.dumps(job), ex=KEY_TTL_S)
     r.set(spec_key, json.dumps(spec), ex=KEY_TTL_S)
     for i, a, n in ranges:
         celery.send_task("trajlab.mc_chunk", args=[run_id, i, a, n, seed], queue=QUEUE_HEAVY)
@@ -82,7 +95,7 @@ def run_distributed(celery, r: redis.Redis, *, spec: dict, samples: int, seed: i
         raw = r.hgetall(results_key)
         entries = [json.loads(raw[str(i).encode()]) for i, _, _ in ranges]
     finally:
-        r.delete(spec_key, results_key, *[f"{claim_key}:{i}" for i, _, _ in ranges])
+        r.delete(spec_key, results_key, _job_key(run_id), *[f"{claim_key}:{i}" for i, _, _ in ranges])
     summary = merge_chunks([e["partial"] for e in entries])
     by: dict[str, int] = {}
     for e in entries:

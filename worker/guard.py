@@ -1,25 +1,35 @@
 """The guard of a running job: its memory cap (``TRAJLAB_JOB_MEMORY_MB``) and a time limit that
-holds inside native code.
+hold inside native code.
 
 How memory is capped, and why this way:
 
-* What is capped is what the job holds, its resident memory (``/proc/self/statm``), not its address
+* What is capped is what the job holds, its resident memory (``/proc/PID/statm``), not its address
   space: numba and LLVM (heyoka) reserve virtual memory they never touch (a reentry preset: VmSize
   about 600 MB for 130 MB resident), so an ``RLIMIT_AS`` low enough to matter kills healthy jobs.
-* A watchdog thread in the pool process samples it every :data:`SAMPLE_S`.  Not a cgroup v2
-  ``memory.max`` per job: that needs a process per job in a cgroup of its own under a delegated
-  subtree (root, or systemd's ``Delegate=yes``), which an unprivileged container or a cgroup v1 host
-  (this one) does not give, and the kernel's OOM kill in that cgroup leaves no word: the job would be
-  re-run as a lost worker.  The watchdog works on any Linux as any user and says what happened.
-* Past the cap it stores the failure (code ``resource_limit``, naming the cap and the memory reached)
-  and ends the pool process (SIGKILL to itself, after a log line saying why): the job's thread may be inside IPOPT, MUMPS or a numba
-  kernel, where no Python exception reaches it, and would go on allocating.  Celery's pool starts a
-  fresh process; the message it hands back is dropped at the claim (the job is finished), so the job
-  is not retried, and the pool's other processes and their jobs are untouched.
-* ``RLIMIT_DATA`` (data segment plus private writable mappings) is the backstop for what sampling can
-  miss (a burst of allocations between two samples): set per job to :data:`DATA_BACKSTOP` times the cap
-  above the data size at the start, a malloc past it fails and the job fails as ``resource_limit``
-  (``worker.tasks`` maps ``MemoryError``) instead of waking the kernel's OOM killer.
+* A watcher process (``worker.watch``, one beside each pool process, started at its first job and kept)
+  samples it, at an interval that shrinks as the job nears its cap: 50 ms far below it, 1 ms at it, so
+  that a job growing at 4 GB/s passes its cap by no more than about 2.5% before a sample sees it.  A
+  process, not a thread: a thread of the job's process needs the GIL, and CasADi builds its expressions
+  and IPOPT runs with the GIL held, so a thread sampling ten times a second saw a wide ``ocp`` (50 states,
+  20 controls, 1,000 intervals, growing about 1 GB/s while building its NLP) only at 1,152 MB against a
+  1,000 MB cap (15% over), and a native call that holds the GIL while it writes memory (``ctypes.PyDLL``)
+  ran to 1,513 MB against 512.  Not a cgroup v2 ``memory.max`` per job: that needs a process per job in a
+  cgroup of its own under a delegated subtree (root, or systemd's ``Delegate=yes``), which an
+  unprivileged container or a cgroup v1 host (this one) does not give, and the kernel's OOM kill in that
+  cgroup leaves no word: the job would be re-run as a lost worker.  The watcher works on any Linux as
+  any user and says what happened.
+* Past the cap the watcher ends the pool process (SIGKILL: the job's thread may be inside IPOPT, MUMPS or
+  a numba kernel, where no Python exception reaches it, and would go on allocating), then stores the
+  failure (code ``resource_limit``, naming the cap and the memory reached) through the handler the
+  guard names (``worker.tasks.store_breach`` for a job and its Monte Carlo chunks and pieces), and
+  exits.  Celery's pool starts a fresh process; the message it hands back is dropped at the claim (the
+  job's heartbeat is fresh, then the job is finished), so the job is not retried, and the pool's other
+  processes and their jobs are untouched.
+* ``RLIMIT_DATA`` (data segment plus private writable mappings) is the backstop for a watcher that could
+  not start: set per job to :data:`DATA_BACKSTOP` times the cap above the data size at the start, a malloc
+  past it fails and the job fails as ``resource_limit`` (``worker.tasks`` maps ``MemoryError``) instead
+  of waking the kernel's OOM killer.  Where the watcher cannot start, a thread of the job's process
+  samples instead (ten times a second, when it gets the GIL), and the log says so.
 
 What earlier jobs left in the process (cached CasADi solvers, compiled libraries, freed memory glibc
 keeps) is not charged to the next job: a job is charged what the process holds above its own start,
@@ -31,26 +41,31 @@ charge can miss (a job reusing memory glibc kept from an earlier one) and keeps 
 The guard assumes Celery's prefork pool (one job per process, as every documented way of running a
 worker starts it); under ``--pool solo`` a breach ends the whole worker and its supervisor restarts it.
 
-The same thread enforces the time limit for a job that never returns to Python: Celery's soft limit
+The watcher enforces the time limit too, for a job that never returns to Python: Celery's soft limit
 is a signal, which Python handles only between bytecodes, so a long native call holds it off and
 Celery's hard limit would kill the process without a word (the job then looks lost and is re-run).
-At half the hard margin past the soft limit the guard stores ``time_limit`` and ends the process.
+At half the hard margin past the soft limit the watcher ends the process and stores ``time_limit``.
 """
 from __future__ import annotations
 
 import ctypes
+import json
 import logging
 import os
 import resource
+import select
 import signal
+import subprocess
 import sys
 import threading
 import time
-from collections.abc import Callable
+from pathlib import Path
+
+from worker import watch
 
 log = logging.getLogger("trajlab.worker")
 
-SAMPLE_S = 0.1            # a 10 Hz sample costs about 20 us of CPU each (one read of statm)
+SAMPLE_S = 0.1            # the in-process fallback's interval (a sample costs about 20 us of CPU)
 # RLIMIT_DATA: this many caps above the data size at the job's start.  Data grows faster than resident
 # memory (robust_reentry at 1000 intervals: VmData +1050 MB for +440 MB resident, 2.4x), so 4x.
 DATA_BACKSTOP = 4.0
@@ -59,6 +74,9 @@ _PAGE = os.sysconf("SC_PAGE_SIZE")
 
 # The resident memory of this process at its first guarded job (a forked pool process starts afresh).
 _first: dict[int, int] = {}
+# This process's watcher (keyed by pid: a process forked from one that had a watcher needs its own).
+_watchers: dict[int, subprocess.Popen] = {}
+_ROOT = Path(__file__).resolve().parents[1]
 
 
 def resident_bytes() -> int | None:
@@ -99,29 +117,94 @@ def reset_peak() -> None:
         pass  # then Celery compares the peak, which recycles more often, never less
 
 
+def start_watcher() -> subprocess.Popen | None:
+    """This process's watcher (``worker.watch``), started if it is not running; None if it cannot start."""
+    pid = os.getpid()
+    w = _watchers.get(pid)
+    if w is not None and w.poll() is None:
+        return w
+    path = os.pathsep.join([str(_ROOT), *filter(None, [os.environ.get("PYTHONPATH")])])
+    try:
+        # exec'd, with no descriptor of ours but its pipes (close_fds): no database or broker connection
+        # of this process reaches it
+        w = subprocess.Popen([sys.executable, "-m", "worker.watch", str(pid)], stdin=subprocess.PIPE,
+                             stdout=subprocess.PIPE, close_fds=True, env={**os.environ, "PYTHONPATH": path})
+    except OSError as exc:
+        log.error("the memory watcher did not start (%s): jobs in process %d are sampled from inside it", exc, pid)
+        return None
+    _watchers[pid] = w
+    return w
+
+
 class JobGuard:
-    """Watch one job in this process: its memory against ``cap_bytes`` (None: no cap) and the clock
-    against ``deadline + grace_s`` (monotonic).  On a breach ``on_breach(error)`` stores the failure,
-    then the process exits.  A context manager around the job's run."""
+    """Hold one job in this process to ``cap_bytes`` of memory (None: no cap) and to ``deadline + grace_s``
+    (monotonic).  On a breach the process is ended and ``handler(error, context)`` stores the failure:
+    ``handler`` is a ``module:function`` path, called in the watcher process (or, in the fallback, in this
+    one just before it ends), so ``context`` is JSON.  A context manager around the job's run."""
 
     def __init__(self, *, job_id: str, cap_bytes: int | None, deadline: float, grace_s: float,
-                 time_limit_message: str, on_breach: Callable[[dict], None]):
+                 time_limit_message: str, handler: str, context: dict):
         self.job_id = job_id
         self.cap_bytes = cap_bytes
         self.deadline = deadline
         self.grace_s = grace_s
         self.time_limit_message = time_limit_message
-        self.on_breach = on_breach
+        self.handler = handler
+        self.context = {"job_id": job_id, **context}
         self.start_bytes = self.first_bytes = 0
         self.peak_bytes = 0
         self._rlimit: tuple[int, int] | None = None
+        self._watcher: subprocess.Popen | None = None
         self._done = threading.Event()
-        self._thread = threading.Thread(target=self._watch, name=f"guard-{job_id}", daemon=True)
+        self._thread: threading.Thread | None = None
 
     def charged(self, rss: int) -> int:
         """The job's memory: what the process holds above the job's start, plus its first job's start."""
         return max(rss - self.start_bytes, 0) + self.first_bytes
 
+    def __enter__(self) -> "JobGuard":
+        self.start_bytes = resident_bytes() or 0
+        self.first_bytes = _first.setdefault(os.getpid(), self.start_bytes)
+        self.peak_bytes = self.first_bytes
+        if self.cap_bytes is not None:
+            self._limit_data()
+        self._watcher = start_watcher() if self.start_bytes else None
+        if self._watcher is not None:
+            try:
+                self._send({"op": "start", "cap": self.cap_bytes, "start": self.start_bytes,
+                            "first": self.first_bytes, "deadline": self.deadline, "grace_s": self.grace_s,
+                            "time_limit_message": self.time_limit_message, "handler": self.handler,
+                            "context": self.context})
+            except OSError as exc:
+                log.error("job %s: the memory watcher is gone (%s); sampled from inside the process", self.job_id, exc)
+                self._watcher = None
+        if self._watcher is None:
+            self._thread = threading.Thread(target=self._watch, name=f"guard-{self.job_id}", daemon=True)
+            self._thread.start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self._watcher is not None:
+            try:
+                self._send({"op": "stop"})
+                out = self._watcher.stdout
+                assert out is not None
+                if select.select([out], [], [], 5.0)[0]:
+                    self.peak_bytes = max(self.peak_bytes, int(json.loads(out.readline())["peak"]))
+            except (OSError, ValueError, KeyError):
+                log.warning("job %s: the memory watcher did not answer at the job's end", self.job_id)
+        if self._thread is not None:
+            self._done.set()
+            self._thread.join(timeout=5)
+        if self._rlimit is not None:
+            resource.setrlimit(resource.RLIMIT_DATA, self._rlimit)
+
+    def _send(self, msg: dict) -> None:
+        assert self._watcher is not None and self._watcher.stdin is not None
+        self._watcher.stdin.write(json.dumps(msg).encode() + b"\n")
+        self._watcher.stdin.flush()
+
+    # --- the fallback: sampled from a thread of this process --------------------------------------
     def _watch(self) -> None:
         while not self._done.wait(SAMPLE_S):
             rss = resident_bytes()
@@ -129,10 +212,7 @@ class JobGuard:
                 held = self.charged(rss)
                 self.peak_bytes = max(self.peak_bytes, held)
                 if self.cap_bytes is not None and held > self.cap_bytes:
-                    self._breach({"code": "resource_limit", "message": (
-                        # rounded apart, so that the memory reached always reads above the cap
-                        f"the job reached {-(-held // MB)} MB of memory, past the cap of {self.cap_bytes // MB} MB "
-                        "per job (TRAJLAB_JOB_MEMORY_MB); a smaller grid or fewer samples fit")})
+                    self._breach(watch.memory_error(held, self.cap_bytes))
             if time.monotonic() > self.deadline + self.grace_s:
                 self._breach({"code": "time_limit", "message": self.time_limit_message})
 
@@ -140,7 +220,7 @@ class JobGuard:
         log.error("job %s: %s; its worker process ends now (SIGKILL) and the pool starts a fresh one",
                   self.job_id, error["message"])
         try:
-            self.on_breach(error)
+            watch.call_handler(self.handler, error, self.context)
         except Exception:  # exit all the same: the process must not run on past its bounds
             log.exception("job %s: the %s failure was not stored; the reaper takes the job over",
                           self.job_id, error["code"])
@@ -151,21 +231,6 @@ class JobGuard:
         # not a Python exit: the main thread may be inside native code, and nothing of this process
         # (atexit handlers, the pool's shutdown) may run on past the breach
         os.kill(os.getpid(), signal.SIGKILL)
-
-    def __enter__(self) -> "JobGuard":
-        self.start_bytes = resident_bytes() or 0
-        self.first_bytes = _first.setdefault(os.getpid(), self.start_bytes)
-        self.peak_bytes = self.first_bytes
-        if self.cap_bytes is not None:
-            self._limit_data()
-        self._thread.start()
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self._done.set()
-        self._thread.join(timeout=5)
-        if self._rlimit is not None:
-            resource.setrlimit(resource.RLIMIT_DATA, self._rlimit)
 
     def _limit_data(self) -> None:
         data = data_bytes()

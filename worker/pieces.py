@@ -11,11 +11,12 @@ fan-out (``worker/fanout.py``), a piece may take minutes (a solve), hence the le
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import threading
 import time
 import uuid
-from typing import Callable
+from typing import Callable, ContextManager
 
 import redis
 
@@ -74,8 +75,11 @@ def _stop_reader(r: redis.Redis, stop_key: str, also: Callable[[], bool]) -> Cal
 
 
 def compute_piece(r: redis.Redis, run_id: str, index: int, *, who: str,
-                  should_stop: Callable[[], bool] = lambda: False) -> bool:
-    """Claim and compute one piece; False if it is claimed or done already, or the run is over."""
+                  should_stop: Callable[[], bool] = lambda: False,
+                  guarded: Callable[[dict | None], ContextManager] = lambda job: contextlib.nullcontext()) -> bool:
+    """Claim and compute one piece; False if it is claimed or done already, or the run is over.
+    ``guarded(job)``: the bounds the piece runs under, given the job it belongs to (``run_distributed``'s
+    ``job``; the job's own process passes none, its guard is around it already)."""
     keys = _keys(run_id)
     if r.hexists(keys["results"], str(index)):
         return False
@@ -87,7 +91,7 @@ def compute_piece(r: redis.Redis, run_id: str, index: int, *, who: str,
         return False
     run = json.loads(raw)
     fn = PIECES.get(run["name"])
-    with _Lease(r, claim):
+    with _Lease(r, claim), guarded(run.get("job")):
         if fn is None:
             out = {"raised": f"LookupError: no piece named {run['name']} in this worker"}
         else:
@@ -98,11 +102,14 @@ def compute_piece(r: redis.Redis, run_id: str, index: int, *, who: str,
 
 
 def run_distributed(celery, r: redis.Redis, fn, spec: dict, count: int, *, label: str, who: str,
-                    should_stop: Callable[[], bool], on_progress: Callable[[float, str], None]) -> list[dict]:
-    """The pieces' outputs in index order (module docstring); ``{"by"}`` in each says which worker computed it."""
+                    should_stop: Callable[[], bool], on_progress: Callable[[float, str], None],
+                    job: dict | None = None) -> list[dict]:
+    """The pieces' outputs in index order (module docstring); ``{"by"}`` in each says which worker computed it.
+    ``job`` (``{"id", "attempt", "ends_at"}``): the job they belong to, whose bounds hold the pieces other
+    workers compute (``worker.tasks.piece``)."""
     run_id = uuid.uuid4().hex
     keys = _keys(run_id)
-    r.set(keys["spec"], json.dumps({"name": piece_name(fn), "spec": spec}), ex=KEY_TTL_S)
+    r.set(keys["spec"], json.dumps({"name": piece_name(fn), "spec": spec, "job": job}), ex=KEY_TTL_S)
     for i in range(count):
         celery.send_task("trajlab.piece", args=[run_id, i], queue=QUEUE_HEAVY)
 

@@ -34,7 +34,7 @@ from solvers.transcription import jit
 from worker import fanout, pieces
 from worker.celery_app import celery_app
 from worker.context import WorkerJobContext
-from worker.guard import MB, JobGuard
+from worker.guard import DATA_BACKSTOP, MB, JobGuard
 
 log = logging.getLogger("trajlab.worker")
 
@@ -65,11 +65,11 @@ def execute_job(db: Database, settings: Settings, job_id: str, attempt: int, *, 
     log.info("job %s attempt %d started (request %s)", job_id, claim.attempt, claim.request_id)
     spec = KINDS[claim.kind]
     ctx = WorkerJobContext(db, claim, settings=settings, celery=celery_app)
-    guard = JobGuard(job_id=job_id, cap_bytes=settings.job_memory_mb * MB if settings.job_memory_mb else None,
-                     deadline=ctx.deadline, grace_s=settings.hard_time_limit_margin_s / 2,
+    guard = JobGuard(job_id=job_id, cap_bytes=_cap_bytes(settings), deadline=ctx.deadline,
+                     grace_s=settings.hard_time_limit_margin_s / 2,
                      time_limit_message=_time_limit_error(settings, claim.kind,
                                                           ended_after_s=settings.hard_time_limit_margin_s / 2)["message"],
-                     on_breach=lambda error: _give_up(db, settings, job_id, claim.attempt, error))
+                     handler=BREACH_HANDLER, context={"attempt": claim.attempt})
     with ctx, guard:
         try:
             params = spec.params_model.model_validate(claim.params)
@@ -77,8 +77,8 @@ def execute_job(db: Database, settings: Settings, job_id: str, attempt: int, *, 
                 outcome = spec.run(params, ctx)
         except MemoryError:  # a malloc refused by the guard's RLIMIT_DATA backstop
             outcome = RunOutcome("failed", error={"code": "resource_limit", "message": (
-                f"the job ran out of memory at {guard.peak_bytes / MB:.0f} MB or more (cap "
-                f"{settings.job_memory_mb} MB per job, TRAJLAB_JOB_MEMORY_MB)")})
+                f"the job ran out of memory: an allocation passed {DATA_BACKSTOP:g} times the cap of "
+                f"{settings.job_memory_mb} MB per job (TRAJLAB_JOB_MEMORY_MB)")})
         except JobFailure as exc:
             outcome = RunOutcome("failed", error={"code": exc.code, "message": exc.message, "details": exc.details})
         except JobCancelled:
@@ -155,6 +155,42 @@ def _give_up(db: Database, settings: Settings, job_id: str, attempt: int, error:
             publish_or_defer(db, celery_app, settings, nxt)
 
 
+
+# What a job's guard calls to store its breach (worker.guard: in the watcher process, after the job's
+# process was ended): a module path, because the watcher is a process of its own.
+BREACH_HANDLER = "worker.tasks:store_breach"
+
+
+def store_breach(error: dict, context: dict) -> None:
+    """Store the failure of the job ``context["job_id"]`` (attempt ``context["attempt"]``) that its guard
+    ended; ``context["part"]`` names the share of its work that broke the bound (a Monte Carlo chunk or a
+    piece run by another worker process)."""
+    settings = get_settings()
+    part = context.get("part")
+    if part:
+        error = {**error, "message": f"{error['message']} (in {part} of the job, run by another worker process)"}
+    _give_up(get_database(settings.database_url, settings), settings, context["job_id"], int(context["attempt"]),
+             error)
+
+
+def _cap_bytes(settings: Settings) -> int | None:
+    return settings.job_memory_mb * MB if settings.job_memory_mb else None
+
+
+def _part_guard(settings: Settings, job: dict | None, part: str) -> contextlib.AbstractContextManager:
+    """The guard of a share of a job's work that another worker process computes (a Monte Carlo chunk, a
+    piece): the job's memory cap and what is left of its time limit; a breach fails the job.  ``job``
+    (``{"id", "attempt", "ends_at"}``, ``ends_at`` a wall-clock time) comes with the work; without it (a
+    message from before this field) the work runs unguarded, as it did."""
+    if not job:
+        return contextlib.nullcontext()
+    grace_s = settings.hard_time_limit_margin_s / 2
+    return JobGuard(job_id=job["id"], cap_bytes=_cap_bytes(settings),
+                    deadline=time.monotonic() + (float(job["ends_at"]) - time.time()), grace_s=grace_s,
+                    time_limit_message=f"the job ran past its time limit; this part of it did not stop within "
+                                       f"{grace_s:.0f} s, so its worker process was ended",
+                    handler=BREACH_HANDLER, context={"attempt": job["attempt"], "part": part})
+
 class JobTask(Task):
     """``run_job``'s task class: a job whose process Celery's hard time limit killed is stored as failed."""
 
@@ -192,7 +228,8 @@ def run_job(self, job_id: str, attempt: int) -> str | None:
 def mc_chunk(self, run_id: str, index: int, start: int, count: int, seed: int) -> bool:
     settings = get_settings()
     return fanout.compute_chunk(redis_client(settings.broker_url, settings=settings), run_id, index, start, count,
-                                seed, who=self.request.hostname or socket.gethostname())
+                                seed, who=self.request.hostname or socket.gethostname(),
+                                guarded=lambda job: _part_guard(settings, job, "a Monte Carlo chunk"))
 
 
 @celery_app.task(name="trajlab.piece", bind=True)
@@ -200,4 +237,5 @@ def piece(self, run_id: str, index: int) -> bool:
     """One piece of a job's fan-out (``worker/pieces.py``), unless the job or another worker has it."""
     settings = get_settings()
     return pieces.compute_piece(redis_client(settings.broker_url, settings=settings), run_id, index,
-                                who=self.request.hostname or socket.gethostname())
+                                who=self.request.hostname or socket.gethostname(),
+                                guarded=lambda job: _part_guard(settings, job, "a piece"))

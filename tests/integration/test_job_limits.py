@@ -62,7 +62,7 @@ def test_a_job_past_the_memory_cap_fails_as_resource_limit_and_the_jobs_beside_i
     message = failed["error"]["message"]
     assert "TRAJLAB_JOB_MEMORY_MB" in message
     reached, cap = (int(v) for v in re.findall(r"(\d+) MB", message)[:2])
-    assert cap == CAP_MB and reached > CAP_MB
+    assert cap == CAP_MB and CAP_MB < reached <= 1.05 * CAP_MB  # stopped within 5% (worker.watch)
     assert failed["attempts"] == 1  # not retried: the redelivered message was dropped at the claim
     for job in done:  # beside it (another pool process) and after it (the process that replaced it)
         assert job["status"] == "succeeded", job
