@@ -71,6 +71,11 @@ def _rows(stack: Stack, ids: list[str]) -> dict[str, tuple]:
     return {r[0]: (r[1], r[2]) for r in rows}
 
 
+def _tails(*logs, lines: int = 30) -> str:
+    return "\n".join(f"--- {log.name}:\n" + "\n".join(log.read_text(errors="replace").splitlines()[-lines:])
+                     for log in logs if log.exists())
+
+
 def _study_points(stack: Stack, study_ids: list[str]) -> list[str]:
     with psycopg.connect(stack.pg.url.replace("+psycopg", ""), connect_timeout=5) as conn:
         return [r[0] for r in conn.execute("SELECT id FROM jobs WHERE study_id = ANY(%s)", (study_ids,)).fetchall()]
@@ -146,8 +151,13 @@ def test_an_api_and_a_worker_silently_cut_from_redis(cut_hosts):
         running = httpx.post(f"{base}/v1/jobs", json=RUNNING, timeout=120).json()["id"]
         accepted.append(running)
         deadline = time.monotonic() + 300
-        while _rows(stack, [running])[running][0] != "running":
-            assert time.monotonic() < deadline, "the job meant to run through the cut never started"
+        while (row := _rows(stack, [running])[running])[0] != "running":
+            # a job that ended before we saw it running, or one never published, is a different failure: say which
+            assert row[0] not in FINAL, f"the job meant to run through the cut ended {row[0]} before the cut; " \
+                                        f"logs: {_tails(api_log, worker_log)}"
+            assert time.monotonic() < deadline, f"the job meant to run through the cut never started " \
+                                                f"(status {row[0]}, published_at {row[1]}); " \
+                                                f"logs: {_tails(api_log, worker_log)}"
             time.sleep(0.05)
         worker_log_at = len(worker_log.read_text(errors="replace"))
         cut_at = hosts["api"].cut(API_REDIS)
