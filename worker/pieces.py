@@ -2,7 +2,8 @@
 points are: each piece is a message any worker may take, and the job works through them too.
 
 The job stores the spec in Redis, publishes one ``trajlab.piece`` message per piece on the heavy queue,
-then claims and computes pieces itself until none is left unclaimed, and waits for the others' outputs.
+then claims and computes pieces itself until none is left unclaimed, and waits for the others' outputs,
+looking every ``POLL_S`` with one pipelined read for all pieces (which are done, which are claimed).
 A piece is claimed with ``SET NX`` under a lease its computer keeps renewing (a thread, every third of
 the lease), so a piece whose worker died is claimed again once its lease runs out, by the job at the
 latest; a duplicate is harmless (a piece is a pure function of the spec and its index).  A cancelled job
@@ -27,6 +28,7 @@ from app.service.broker import QUEUE_HEAVY
 KEY_TTL_S = 24 * 3600
 LEASE_S = 30.0
 STOP_POLL_S = 0.5
+POLL_S = 0.2  # the job's wait between two looks at the others' pieces
 
 
 def _keys(run_id: str) -> dict[str, str]:
@@ -113,22 +115,33 @@ def run_distributed(celery, r: redis.Redis, fn, spec: dict, count: int, *, label
     for i in range(count):
         celery.send_task("trajlab.piece", args=[run_id, i], queue=QUEUE_HEAVY)
 
-    def report() -> int:
-        done = int(r.hlen(keys["results"]))
-        on_progress(done / count, f"{label} {done}/{count} done")
-        return done
+    claims = [f"{keys['claim']}:{i}" for i in range(count)]
+
+    def look() -> tuple[int, list[int]]:
+        """One round trip: how many pieces are done (reported), and which are neither done nor claimed (a
+        lease that lapsed included)."""
+        pipe = r.pipeline(transaction=False)
+        pipe.hkeys(keys["results"])
+        if claims:
+            pipe.mget(claims)
+        done_keys, *held = pipe.execute()
+        done = {int(k) for k in done_keys}
+        on_progress(len(done) / count, f"{label} {len(done)}/{count} done")
+        return len(done), [i for i in range(count) if i not in done and held[0][i] is None]
 
     try:
         while True:
             if should_stop():
                 r.set(keys["stop"], "1", ex=KEY_TTL_S)
                 raise JobCancelled(f"cancelled during the {label}s")
-            for i in range(count):
-                if compute_piece(r, run_id, i, who=who, should_stop=should_stop):
-                    report()
-            if report() >= count:
+            done, free = look()
+            if done >= count:
                 break
-            time.sleep(0.2)     # the others' pieces: claimed and leased, or reclaimed above when a lease lapsed
+            for i in free:  # claimed with SET NX in compute_piece: another worker may have taken it since
+                if compute_piece(r, run_id, i, who=who, should_stop=should_stop):
+                    break  # look again: the progress, and what the others took meanwhile
+            else:  # the others' pieces, claimed and leased; one whose lease lapses is free at a later look
+                time.sleep(POLL_S)
         raw = r.hgetall(keys["results"])
         entries = [json.loads(raw[str(i).encode()]) for i in range(count)]
     finally:

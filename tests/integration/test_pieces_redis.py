@@ -55,3 +55,58 @@ def test_a_dead_claimers_piece_is_computed_once_its_lease_lapses(run):
     time.sleep(1.2)
     assert pieces.compute_piece(r, run_id, 1, who="b") is True
     assert json.loads(r.hget(keys["results"], "1")) == {"by": "b", "output": {"square": 1}} and CALLS == [1]
+
+
+@piece
+def index_of(spec: dict, index: int, should_stop) -> dict:
+    return {"index": index}
+
+
+WAIT_COMMANDS = ("hexists", "set", "hlen", "hkeys", "mget", "exists")
+
+
+def test_the_job_waits_on_the_others_pieces_with_one_read_per_round(tmp_path, monkeypatch):
+    """A job whose pieces all but one are held by other workers reads Redis once per round for all of them
+    (counted by a redis-server of the test's own), not once per piece."""
+    from types import SimpleNamespace
+
+    from app.runtime.settings import Settings
+    from app.service.broker import create_publisher
+    from tests.faults.servers import RedisServer
+
+    server = RedisServer(tmp_path).start()
+    try:
+        r = redis.Redis.from_url(server.url)
+        count, run_id = 20, uuid.uuid4().hex
+        monkeypatch.setattr(pieces, "uuid", SimpleNamespace(uuid4=lambda: SimpleNamespace(hex=run_id)))
+        keys = pieces._keys(run_id)
+        for i in range(1, count):  # held by live workers (their leases renewed): the job waits for them
+            r.set(f"{keys['claim']}:{i}", "other", px=60_000)
+
+        def the_others_finish():
+            time.sleep(1.5)
+            for i in range(1, count):
+                r.hset(keys["results"], str(i), json.dumps({"by": "other", "output": {"index": i}}))
+
+        threading.Thread(target=the_others_finish, daemon=True).start()
+        out: list = []
+        job = threading.Thread(target=lambda: out.append(pieces.run_distributed(
+            create_publisher(Settings(database_url="sqlite://", broker_url=server.url)), r, index_of, {}, count,
+            label="piece", who="job", should_stop=lambda: False, on_progress=lambda *_: None)))
+        job.start()
+        time.sleep(0.3)  # the job computed piece 0 and waits
+        r.config_resetstat()
+        start = time.monotonic()
+        time.sleep(1.0)
+        stats = r.info("commandstats")
+        window = time.monotonic() - start
+        commands = sum(int(stats.get(f"cmdstat_{c}", {}).get("calls", 0)) for c in WAIT_COMMANDS)
+        job.join(timeout=30)
+        assert out and [o["index"] for o in out[0]] == list(range(count))
+        assert [o["by"] for o in out[0]] == ["job"] + ["other"] * (count - 1)
+        # a round every POLL_S, each one pipelined read (HKEYS, MGET); before: HEXISTS and SET NX per piece,
+        # 2 * 19 + 2 a round (about 200 in the second)
+        rounds = window / pieces.POLL_S + 1
+        assert commands <= 2 * rounds, (commands, stats)
+    finally:
+        server.kill()
