@@ -65,9 +65,14 @@ def _over(url: str, link: int) -> str:
     return url.replace("127.0.0.1", Host.server_address(link))
 
 
-def _rows(stack: Stack, ids: list[str]) -> dict[str, tuple]:
-    with psycopg.connect(stack.pg.url.replace("+psycopg", ""), connect_timeout=5) as conn:
-        rows = conn.execute("SELECT id, status, published_at FROM jobs WHERE id = ANY(%s)", (ids,)).fetchall()
+def _db(stack: Stack) -> psycopg.Connection:
+    """The test's one connection to the stack's PostgreSQL (never cut), reused by every poll below (they ran
+    every 0.1 s, two connections each); autocommit: each query sees the latest commits."""
+    return psycopg.connect(stack.pg.url.replace("+psycopg", ""), connect_timeout=5, autocommit=True)
+
+
+def _rows(db: psycopg.Connection, ids: list[str]) -> dict[str, tuple]:
+    rows = db.execute("SELECT id, status, published_at FROM jobs WHERE id = ANY(%s)", (ids,)).fetchall()
     return {r[0]: (r[1], r[2]) for r in rows}
 
 
@@ -76,9 +81,8 @@ def _tails(*logs, lines: int = 30) -> str:
                      for log in logs if log.exists())
 
 
-def _study_points(stack: Stack, study_ids: list[str]) -> list[str]:
-    with psycopg.connect(stack.pg.url.replace("+psycopg", ""), connect_timeout=5) as conn:
-        return [r[0] for r in conn.execute("SELECT id FROM jobs WHERE study_id = ANY(%s)", (study_ids,)).fetchall()]
+def _study_points(db: psycopg.Connection, study_ids: list[str]) -> list[str]:
+    return [r[0] for r in db.execute("SELECT id FROM jobs WHERE study_id = ANY(%s)", (study_ids,)).fetchall()]
 
 
 def _burst(client: httpx.Client, *, cancelled: list[str], accepted: list[str], studies: list[str],
@@ -134,6 +138,7 @@ def test_an_api_and_a_worker_silently_cut_from_redis(cut_hosts):
     accepted: list[str] = []
     cancelled: list[str] = []
     studies: list[str] = []
+    db = _db(stack)
     try:
         stack.wait_ready()
         # ready: the database, the broker and the worker's recovery heartbeat (its start is no part of this)
@@ -145,13 +150,13 @@ def test_an_api_and_a_worker_silently_cut_from_redis(cut_hosts):
             before = _burst(client, cancelled=cancelled, accepted=accepted, studies=studies,
                             ready_codes=ready_before)
         deadline = time.monotonic() + 300  # the worker takes the next job at once: nothing queued before it
-        while any(status not in FINAL for status, _ in _rows(stack, accepted + _study_points(stack, studies)).values()):
+        while any(status not in FINAL for status, _ in _rows(db, accepted + _study_points(db, studies)).values()):
             assert time.monotonic() < deadline, "the jobs of the burst before the cut did not end"
             time.sleep(0.1)
         running = httpx.post(f"{base}/v1/jobs", json=RUNNING, timeout=120).json()["id"]
         accepted.append(running)
         deadline = time.monotonic() + 300
-        while (row := _rows(stack, [running])[running])[0] != "running":
+        while (row := _rows(db, [running])[running])[0] != "running":
             # a job that ended before we saw it running, or one never published, is a different failure: say which
             assert row[0] not in FINAL, f"the job meant to run through the cut ended {row[0]} before the cut; " \
                                         f"logs: {_tails(api_log, worker_log)}"
@@ -178,17 +183,17 @@ def test_an_api_and_a_worker_silently_cut_from_redis(cut_hosts):
         watcher.join()
         # the run through the cut ends (its result goes to PostgreSQL, reachable) and its metrics wait
         deadline = time.monotonic() + 300
-        while _rows(stack, [running])[running][0] not in FINAL:
+        while _rows(db, [running])[running][0] not in FINAL:
             assert time.monotonic() < deadline, "the job running through the cut did not end"
             time.sleep(0.1)
         readyz_cut = httpx.get(f"{base}/readyz", timeout=120).json()
         cut_s = time.monotonic() - cut_at
         restored_at = hosts["api"].restore(API_REDIS)
         hosts["w"].restore(W_REDIS)
-        ids = accepted + _study_points(stack, studies)
+        ids = accepted + _study_points(db, studies)
         deadline = time.monotonic() + 300
         while True:  # every job final and every one published (asserted below, after the report)
-            rows = _rows(stack, ids)
+            rows = _rows(db, ids)
             if all(status in FINAL and (published is not None or status == "cancelled")
                    for status, published in rows.values()):
                 break
@@ -198,6 +203,7 @@ def test_an_api_and_a_worker_silently_cut_from_redis(cut_hosts):
         settled_s = time.monotonic() - restored_at
     finally:
         stop_group(api)
+        db.close()
     stored_runs = worker_log.read_text(errors="replace").count(" stored: ")
     r = redis_lib.Redis.from_url(stack.redis.url)
     deadline = time.monotonic() + 60  # the worker's buffer retries every 2 s (asserted below, after the report)
