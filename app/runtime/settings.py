@@ -116,8 +116,18 @@ class Settings(BaseSettings):
     # Caps that keep one request from exhausting the machine.
     job_memory_mb: int | None = Field(
         default=None, ge=0, description="Resident memory one job may hold (worker.guard): past it the job fails "
-                                        "with resource_limit and a job estimated past it is a 422; unset: 3/4 of the "
-                                        "machine's memory over worker_concurrency + quick_concurrency; 0: no cap")
+                                        "with resource_limit and a job estimated past it is a 422; unset: "
+                                        "(memory - memory_reserve_mb) / (job_processes x 1.55), so that every "
+                                        "process of the host can hold a job at its cap, 5% overshoot and half a "
+                                        "cap of an earlier job's leftovers at once (app.runtime.resources); 0: no cap")
+    job_processes: int | None = Field(
+        default=None, ge=1, description="Solver processes of every worker pool on this host, for the default "
+                                        "job_memory_mb; unset: worker_concurrency + quick_concurrency (one "
+                                        "`trajlab worker`)")
+    memory_reserve_mb: int | None = Field(
+        default=None, ge=0, description="Memory kept for everything but the jobs (PostgreSQL, Redis, the API, the "
+                                        "Celery parents, the kernel), for the default job_memory_mb; unset: 1/8 "
+                                        "of the machine's memory, at least 1024")
     worker_recycle_mb: int | None = Field(
         default=None, ge=0, description="A worker process holding more than this after a job is replaced "
                                         "(Celery's worker_max_memory_per_child); unset: half of job_memory_mb")
@@ -192,7 +202,9 @@ class Settings(BaseSettings):
     @model_validator(mode="after")
     def _memory_from_the_machine(self) -> "Settings":
         if self.job_memory_mb is None:
-            self.job_memory_mb = default_job_memory_mb(self.worker_concurrency + self.quick_concurrency)
+            self.job_memory_mb = default_job_memory_mb(
+                processes=self.job_processes or self.worker_concurrency + self.quick_concurrency,
+                reserve=self.memory_reserve_mb, recycle_mb=self.worker_recycle_mb)
         if self.worker_recycle_mb is None:
             self.worker_recycle_mb = self.job_memory_mb // 2
         return self
