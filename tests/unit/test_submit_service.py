@@ -3,6 +3,7 @@ nothing, and a submitted job and a study's point are queued rows of the same sha
 that cannot be reached: accepted work stays queued, kept by the publisher and marked unpublished)."""
 from __future__ import annotations
 
+import threading
 import time
 
 import pytest
@@ -67,3 +68,16 @@ def test_refusals_are_typed_and_a_refused_study_stores_nothing(setup):
                             overrides=INTERCEPT, sweeps=[{"path": "nope", "values": [1]}], mode="independent",
                             label=None, owner=None)
     assert _count(db, Job) == 0 and _count(db, Study) == 0
+
+
+def test_sending_nothing_starts_no_publisher_thread(setup):
+    # GET /v1/studies/{id} hands over what the study's advance created, most often nothing: no thread for that
+    # (one started before and then idled 30 s).  Other tests' publisher threads may end meanwhile, never start.
+    _, _, publisher = setup
+
+    def publishers() -> int:
+        return sum(t.name == "trajlab-publisher" for t in threading.enumerate())
+
+    before = publishers()
+    publisher.send([])
+    assert publishers() <= before and publisher.pending() == 0
