@@ -28,16 +28,20 @@ once per structure and cached by content:
 Compiles that pay (issue 38): a compile costs 15-60 s of a core, so on a small machine (2 cores, two
 worker pools) unbounded compiles swamped the solves they were meant to speed up.  Hence:
 
-* **one compile at a time per host**: an exclusive ``fcntl.flock`` on ``compile.lock`` in the cache
-  directory, across processes (both pools, ``trajlab serve`` and ``trajlab worker`` alike); whoever gets
-  it second finds the library already there and compiles nothing (a structure is compiled once);
+* **one compile at a time per host**: an exclusive ``fcntl.flock`` on a host-wide lock file
+  (``TRAJLAB_JIT_LOCK``, default ``trajlab-jit-compile.lock`` in the system's temporary directory: every
+  service, pool and test on the machine, whatever its cache directory), then on ``compile.lock`` in the
+  cache directory (the compose workers share the cache volume but not ``/tmp``); whoever gets them second
+  finds the library already there and compiles nothing (a structure is compiled once);
 * **at low priority**: the compiler runs under ``os.nice(19)``, so a solve waiting for a core wins it;
 * **only structures likely to come back** (``background`` mode): a structure is compiled when it has been
   seen before (``TRAJLAB_JIT_SEEN`` sightings, default 2, counted per key in ``nlp_<key>.seen`` in the
-  cache directory, across processes and restarts), or when the caller says it will come back
-  (:func:`expected_again`: a preset as it stands, a study's points, a search's repeated solves).  A
-  problem posed once solves in the virtual machine and costs no compile.  ``sync`` (benchmarks)
-  compiles at once, under the same lock;
+  cache directory, across processes and restarts; a process's solver cache handing out a built solver
+  again is a sighting too: another job of that structure, or a search's next start), or when the caller
+  says it will come back (:func:`expected_again`: a preset as it stands, a study's points).  A problem
+  posed once solves in the virtual machine and costs no compile.  ``sync`` (benchmarks) compiles at once,
+  under the same locks.  A structure the compiler rejects is marked like one over the size cap, so it is
+  not tried again at every sighting;
 * ``compiles.log`` in the cache directory records each compile's start and end (time, pid, key), and
   each wait that found the library done: what the tests read, and an operator's answer to "what compiled".
 
@@ -99,7 +103,7 @@ def library(key: str) -> Path:
 
 
 def skipped(key: str) -> bool:
-    """This structure's C was over ``TRAJLAB_JIT_MAX_MB``: never compiled."""
+    """Never compiled: this structure's C was over ``TRAJLAB_JIT_MAX_MB``, or the compiler rejected it."""
     return (cache_dir() / f"nlp_{key}.skip").exists()
 
 
@@ -184,16 +188,38 @@ def _record(event: str, key: str) -> None:
         f.write(f"{time.time():.6f} {os.getpid()} {event} {key}\n")
 
 
+def host_lock_path() -> Path:
+    return Path(os.environ.get("TRAJLAB_JIT_LOCK") or Path(tempfile.gettempdir()) / "trajlab-jit-compile.lock")
+
+
 @contextlib.contextmanager
-def _host_lock(directory: Path):
-    """One compile at a time on this host (every process using this cache directory): blocks until
-    the compile ahead has finished.  flock is released by the kernel if its holder dies."""
-    with open(directory / LOCK_FILE, "a") as f:
+def _flock(path: Path, *, required: bool):
+    """An exclusive flock on ``path`` (blocks until its holder lets go; the kernel releases it if the holder
+    dies).  Each call opens the file anew, so threads of one process exclude each other too.  A host-wide
+    file that this user cannot open (another user's, in a sticky ``/tmp``) is skipped unless ``required``."""
+    try:
+        f = open(path, "a")
+    except OSError:
+        if required:
+            raise
+        f = None
+    if f is None:
+        yield
+        return
+    with f:
         fcntl.flock(f, fcntl.LOCK_EX)
         try:
             yield
         finally:
             fcntl.flock(f, fcntl.LOCK_UN)
+
+
+@contextlib.contextmanager
+def _host_lock(directory: Path):
+    """One compile at a time on this host: the host-wide lock, then this cache directory's (always in
+    that order, so two holders never wait for each other)."""
+    with _flock(host_lock_path(), required=False), _flock(directory / LOCK_FILE, required=True):
+        yield
 
 
 def _low_priority() -> None:
@@ -246,7 +272,10 @@ def _generate_and_compile(cc: str, functions, key: str, lock) -> bool:
         so = Path(tmp) / out.name
         res = subprocess.run([cc, *FLAGS, str(source), "-o", str(so), "-lm"],
                              capture_output=True, text=True, preexec_fn=_low_priority)
-        if res.returncode != 0 or not so.exists():
+        if res.returncode > 0:    # the compiler rejected the code: remembered, like one over the cap
+            (out.parent / f"nlp_{key}.skip").write_text(f"{cc} exit {res.returncode}: {res.stderr[-2000:]}\n")
+            return False
+        if res.returncode != 0 or not so.exists():     # killed (a signal): worth another try later
             return False
         os.replace(so, out)       # atomic: a reader sees no library or a whole one
     return True

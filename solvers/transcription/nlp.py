@@ -151,14 +151,22 @@ class NLPSolver:
         if ext is None and blocks is not None:
             ext = blocks.nlpsol_options(nlp)         # the blocks in the virtual machine
         self.solver = ca.nlpsol(name, "ipopt", nlp, {**opts, **(ext or {})})
-        if key and not self.compiled and not jit.skipped(key) and jit.worth_compiling(key):
-            fns = None if blocks is None else blocks.functions
-            if jit.mode() == "sync":
-                if jit.build(self.solver, key) if fns is None else jit.build_functions(fns, key):
-                    self._use_compiled(key)
-            else:
-                jit.compile_async(self.solver, key, lambda: self._use_compiled(key), self._lock, fns=fns)
+        self._key = key
+        self.sighted()
         self.build_time_s = time.perf_counter() - t0
+
+    def sighted(self) -> None:
+        """This structure is wanted (built, or handed out again by :func:`cached_solver`: another job of it, a
+        search's next start): one sighting for the JIT's policy, and the compile once it pays."""
+        key = self._key
+        if not key or self.compiled or jit.skipped(key) or not jit.worth_compiling(key):
+            return
+        fns = None if self._blocks is None else self._blocks.functions
+        if jit.mode() == "sync":
+            if jit.build(self.solver, key) if fns is None else jit.build_functions(fns, key):
+                self._use_compiled(key)
+        else:
+            jit.compile_async(self.solver, key, lambda: self._use_compiled(key), self._lock, fns=fns)
 
     def _compiled_options(self, key: str) -> dict | None:
         """nlpsol options with the compiled library of ``key``, or None when it is not cached."""
@@ -269,9 +277,12 @@ def cached_solver(key: tuple, build: Callable[[], NLPSolver]) -> tuple[NLPSolver
     NLP parameters or bounds so it does not fragment the cache.
     """
     with _CACHE_LOCK:
-        if key in _CACHE:
+        hit = _CACHE.get(key)
+        if hit is not None:
             _CACHE.move_to_end(key)
-            return _CACHE[key], True
+    if hit is not None:
+        hit.sighted()           # the structure came back: it may now be worth compiling (solvers.transcription.jit)
+        return hit, True
     solver = build()
     with _CACHE_LOCK:
         _CACHE[key] = solver

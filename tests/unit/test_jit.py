@@ -1,4 +1,6 @@
 """Compiled NLP derivatives (solvers.transcription.jit): cache by content, same answer, clean fallback."""
+import time
+
 import casadi as ca
 import numpy as np
 import pytest
@@ -60,7 +62,6 @@ def test_without_a_compiler_it_falls_back_to_the_vm(cache, monkeypatch):
 
 @pytest.mark.skipif(jit.compiler() is None, reason="no C compiler on PATH")
 def test_background_mode_solves_at_once_then_swaps_in_the_library(cache, monkeypatch):
-    import time
     monkeypatch.setenv("TRAJLAB_JIT", "background")
     with jit.expected_again():              # compiled on first sight (a preset, a study's point)
         s, first = solve(toy_nlp(scale=3.0))
@@ -140,3 +141,63 @@ def test_two_processes_compile_one_at_a_time_and_each_structure_once(cache):
     # a process that waited for the lock found the other's library done (one that came later loaded it)
     assert all(compiled_by[key] != pid for pid, event, key in events if event == "found")
     assert all(jit.library(k).exists() for k in keys)
+
+
+@pytest.mark.skipif(jit.compiler() is None, reason="no C compiler on PATH")
+def test_a_structure_handed_out_again_by_the_solver_cache_is_a_sighting(cache, monkeypatch):
+    """A worker keeps built solvers (nlp.cached_solver): the same structure in the next job, or a search's next
+    start, never builds it again, so the cache's hit is what says the structure came back."""
+    from solvers.transcription import nlp as nlp_mod
+
+    monkeypatch.setenv("TRAJLAB_JIT", "background")
+    nlp_mod.clear_cache()
+    key = jit.digest(toy_nlp(scale=13.0))
+    first, cached = nlp_mod.cached_solver(("toy", 13), lambda: NLPSolver(toy_nlp(scale=13.0), name="toy"))
+    assert not cached and not first.compiled
+    assert (cache / f"nlp_{key}.seen").read_text().count("\n") == 1 and not (cache / jit.RECORDS).exists()
+    again, cached = nlp_mod.cached_solver(("toy", 13), lambda: pytest.fail("built again"))
+    assert cached and again is first
+    deadline = time.monotonic() + 60
+    while not first.compiled and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert first.compiled and jit.library(key).exists()
+    assert [line.split()[2] for line in (cache / jit.RECORDS).read_text().splitlines()] == ["start", "end"]
+    nlp_mod.clear_cache()
+
+
+def test_two_holders_of_the_host_lock_never_overlap(cache, tmp_path, monkeypatch):
+    """The host-wide lock is taken before the cache directory's: two cache directories (two services, a test and
+    a service) still compile one at a time."""
+    import threading
+
+    monkeypatch.setenv("TRAJLAB_JIT_LOCK", str(tmp_path / "host.lock"))
+    inside, overlaps = [], []
+
+    def hold(directory):
+        directory.mkdir(exist_ok=True)
+        with jit._host_lock(directory):
+            inside.append(1)
+            overlaps.append(len(inside))
+            time.sleep(0.2)
+            inside.pop()
+
+    threads = [threading.Thread(target=hold, args=(tmp_path / name,)) for name in ("a", "b", "c")]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert overlaps == [1, 1, 1]
+
+
+@pytest.mark.skipif(jit.compiler() is None, reason="no C compiler on PATH")
+def test_code_the_compiler_rejects_is_not_tried_again(cache, monkeypatch, tmp_path):
+    monkeypatch.setenv("TRAJLAB_JIT", "sync")
+    fake = tmp_path / "bin"
+    fake.mkdir()
+    (fake / "cc").write_text("#!/bin/sh\necho 'cc1: out of memory' >&2\nexit 1\n")
+    (fake / "cc").chmod(0o755)
+    monkeypatch.setenv("PATH", f"{fake}:/usr/bin:/bin")
+    s, r = solve(toy_nlp(scale=14.0))
+    key = jit.digest(toy_nlp(scale=14.0))
+    assert r.status.ok and not s.compiled and jit.skipped(key)
+    assert "out of memory" in (cache / f"nlp_{key}.skip").read_text()
