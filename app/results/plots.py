@@ -44,6 +44,29 @@ def has(*paths: str) -> Callable[[dict], bool]:
     return lambda r: all(pick(r, p) is not None for p in paths)
 
 
+def draw_band(ax, t, mean, std, k: float, *, scale: float = 1.0, color: str = "C0") -> None:
+    """A Monte Carlo's mean and its ``mean +- k std`` envelope against ``t`` (the robust kinds' plots)."""
+    mean, std = floats(mean) * scale, floats(std) * scale
+    ax.fill_between(floats(t), mean - k * std, mean + k * std, color=color, alpha=0.3,
+                    label=f"mean +- {k:g} sigma")
+    ax.plot(floats(t), mean, color=color, lw=1.5, label="mean")
+
+
+def draw_histogram(ax, values, *, marks: list[tuple[float | None, str, str]], xlabel: str) -> None:
+    """A histogram of per-sample ``values`` (nulls dropped) with vertical ``marks`` ``(x, label, line
+    style)``; a mark at None is left out."""
+    v = floats(values)
+    v = v[np.isfinite(v)]
+    ax.hist(v, bins=max(10, min(60, int(np.sqrt(v.size)))) if v.size else 10, color="C0", alpha=0.7,
+            label=f"{v.size} samples")
+    for i, (x, label, style) in enumerate(marks):
+        if x is not None:
+            ax.axvline(x, color=f"C{(i + 1) % 10}", ls=style, lw=1.5, label=label)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("samples")
+    ax.legend(fontsize=8)
+
+
 _SOURCES: dict[str, Callable[[dict], list[PlotDef]]] = {}
 
 

@@ -20,8 +20,9 @@ from app.kinds.base import (
 from app.kinds.ocp.footprint import MEMORY, check_parts, compare_series, trajectory_table
 from app.kinds.ocp.headlines import headlines
 from app.kinds.ocp.params import OcpParams
-from app.kinds.ocp.plots import plots
+from app.kinds.ocp.plots import plots as ocp_plots
 from app.kinds.ocp.result import OcpResult
+from app.kinds.ocp.robust.plots import robust_plots
 from app.kinds.ocp.search import run_search, solve_one
 from app.kinds.ocp.trade import swept_label, trade_outputs
 from app.kinds.ocp.warm_start import WARM_START_FIELD, load_warm_start, misfit
@@ -43,13 +44,18 @@ def _presets() -> list[Preset]:
 PRESETS = _presets()
 
 
+def plots(result: dict) -> list:
+    """The problem's own plots, then a robust design's Monte Carlo plots (KindSpec.plots)."""
+    return ocp_plots(result) + robust_plots(result)
+
+
 def run(params: OcpParams, ctx: JobContext) -> RunOutcome:
     t_start = time.perf_counter()
     problem = params.problem
     from_job = params.initial_guess.from_job
     guess = load_warm_start(ctx, from_job, problem) if from_job else None
     if problem.robust is not None:
-        from app.kinds.ocp.robust_run import run_robust
+        from app.kinds.ocp.robust.run import run_robust
         return run_robust(params, ctx, guess=guess, t_start=t_start)
     if problem.starts > 1:                  # several starts, fanned out (app/kinds/ocp/search.py)
         return run_search(params, ctx, guess, from_job=from_job)

@@ -9,7 +9,7 @@ Why the whole-problem check hangs on :meth:`OcpParams.model_validate`, not on a 
 submission's ``params`` override a preset (``{"constants": {"g": 1.62}}`` on ``brachistochrone``), so
 the problem exists only once they are merged; :func:`app.service.params.resolve_params` validates the
 merged set with ``model_validate`` (so do the worker and the studies): a malformed problem is a 422
-naming ``params.<path>`` before anything is stored.  Robust design's models: :mod:`app.kinds.ocp.robust_params`.
+naming ``params.<path>`` before anything is stored.  Robust design's models: :mod:`app.kinds.ocp.robust.params`.
 """
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ from pydantic_core import PydanticCustomError, ValidationError
 
 from app.kinds.base import StrictModel
 from app.kinds.ocp.service_limits import limits, setting_of
-from app.kinds.ocp.robust_params import OcpRobust, OcpUncertainty
+from app.kinds.ocp.robust.params import OcpRobust, OcpUncertainty
 from app.kinds.renamed import move_renamed
 
 NAME_PATTERN = r"^[A-Za-z_][A-Za-z0-9_]*$"

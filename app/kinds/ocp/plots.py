@@ -25,7 +25,8 @@ def _phases(result: dict) -> list[dict]:
     return [{"name": "", "t0": result.get("t0"), "trajectory": tr, "verification": result.get("verification")}]
 
 
-def _label(name: str, result: dict) -> str:
+def label_of(name: str, result: dict) -> str:
+    """``name (unit)`` with the unit the problem declared for it (``t (s)``)."""
     if name == "t":
         return f"t ({(result.get('units') or {}).get('t', 's')})"
     unit = (result.get("units") or {}).get(name)
@@ -40,7 +41,8 @@ def _params_of(params: dict | None, phase: str) -> dict:
     return params or {}
 
 
-def _bounds(params: dict, name: str) -> tuple[float | None, float | None]:
+def declared_bounds(params: dict, name: str) -> tuple[float | None, float | None]:
+    """The lower and upper bound ``params`` declare for a state, a control or a path expression."""
     for group in ("states", "controls"):
         for d in params.get(group) or []:
             if isinstance(d, dict) and d.get("name") == name:
@@ -71,7 +73,7 @@ def _draw(fig, r, params, x: str, y: str, *, bounds: bool):
         if dense and dense.get(x) and dense.get(y):
             ax.plot(floats(dense[x]), floats(dense[y]), "-", lw=1, label="re-flown (verification)")
         if bounds:
-            for b, what in zip(_bounds(_params_of(params, p["name"]), y), ("lower bound", "upper bound")):
+            for b, what in zip(declared_bounds(_params_of(params, p["name"]), y), ("lower bound", "upper bound")):
                 if b is not None and (b, what) not in drawn_bounds:
                     drawn_bounds.add((b, what))
                     ax.axhline(b, color="C3", ls="--", lw=1, label=what)
@@ -81,8 +83,8 @@ def _draw(fig, r, params, x: str, y: str, *, bounds: bool):
             if p.get("t0") is not None:
                 ax.axvline(p["t0"], color="0.4", ls=":", lw=1)
                 ax.text(p["t0"], top, f" {p['name']}", rotation=90, va="top", ha="left", fontsize=8, color="0.3")
-    ax.set_xlabel(_label(x, r))
-    ax.set_ylabel(_label(y, r))
+    ax.set_xlabel(label_of(x, r))
+    ax.set_ylabel(label_of(y, r))
     ax.legend(title="phase" if several else None)
 
 

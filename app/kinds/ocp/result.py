@@ -13,7 +13,7 @@ from pydantic import Field
 
 from app.kinds.base import json_float, json_value
 from app.kinds.result_models import Num, ResultModel, Series
-from app.kinds.ocp.robust_result import OcpRobustResult
+from app.kinds.ocp.robust.result import OcpRobustResult
 
 
 class OcpResultObjective(ResultModel):

@@ -3,7 +3,7 @@ the reentry kind's plots of the robust design."""
 from __future__ import annotations
 
 from app.kinds.reentry.plots import PLOTS as REENTRY_PLOTS
-from app.results.plots import PlotDef, floats, has, pick
+from app.results.plots import PlotDef, draw_band, floats, has, pick
 
 def _designs(fig, r, params):
     ax = fig.add_subplot()
@@ -27,9 +27,7 @@ def _envelopes(fig, r, params):
     for ax, (q, label, scale) in zip(axes, _ENVELOPE):
         for trace in (traces.get(q) or [])[:300]:
             ax.plot(t, floats(trace) * scale, color="0.7", lw=0.3, alpha=0.5)
-        mean, std = floats(env[q]["mean"]) * scale, floats(env[q]["std"]) * scale
-        ax.fill_between(t, mean - k * std, mean + k * std, color="C0", alpha=0.3, label=f"mean +- {k:g} sigma")
-        ax.plot(t, mean, "C0", lw=1.5, label="mean")
+        draw_band(ax, t, env[q]["mean"], env[q]["std"], k, scale=scale)
         ax.set_ylabel(label)
     limit = pick(params or {}, "path.max_heat_rate_w_m2")
     if limit:

@@ -11,7 +11,11 @@ a CasADi function ``map``-ped over them (the RK4 of the transcription, its contr
 between the nodes; ``substeps`` steps per interval, the dense grid on which each named path constraint
 is checked).  Terminal quantities: ``objective`` (the Mayer term plus the integral, in the user's
 sense), each named boundary constraint's value and ``kept:NAME`` (1 where it holds), so the merged
-means are the kept fractions.
+means are the kept fractions; ``objective`` and the named boundary values are kept per draw (the first
+:data:`solvers.uncertainty.montecarlo.MAX_TERMINAL_SAMPLES`: the result's histograms and CSV).  A problem
+posed as one phase is also traced at the kept node times (the envelope of the result's plots): every state
+(``state:NAME``) and the value of every named path constraint (``path:NAME``); several phases are not
+traced yet (the envelope's time grid is one phase's).
 """
 from __future__ import annotations
 
@@ -147,6 +151,9 @@ class _PhaseFlight:
                 parts.append((cn.lower - g[j]) / sc)
             excess.append(parts[0] if len(parts) == 1 else ca.fmax(parts[0], parts[1]))
         self.pathf = ca.Function("mc_path", [x, u, s], [ca.vertcat(*excess) if excess else ca.SX.zeros(0)])
+        # the traced quantities: the states, then each named path constraint's value (not its excess)
+        self.trace_names = [f"state:{n}" for n in ph.state_names] + [f"path:{cn.name}" for _, cn in self.path_named]
+        self.tracef = ca.Function("mc_trace", [x, u, s], [ca.vertcat(x[:nx], *[g[j] for j, _ in self.path_named])])
         self.bnd_named = [(j, cn) for j, cn in enumerate(ph.boundary) if cn.name in names]
         self.u0, self.uf, self.theta = ca.DM(self.d["u0"]), ca.DM(self.d["uf"]), theta
         self.intervals: dict = {}
@@ -249,6 +256,13 @@ def _build_model(mp: dict) -> MCModel:
         worst_node = {nm: np.full(n, -np.inf) for nm in path_names}
         stack = []
         xk = ca.DM(np.ascontiguousarray(x0, float))
+        rows = {int(node): r for r, node in enumerate(kept_nodes)} if problem.single else {}
+        traces = np.full((len(first.trace_names), len(rows), n), np.nan)
+
+        def keep(node: int, Uc: np.ndarray) -> None:
+            if node in rows:
+                u = ca.DM(Uc[:, min(node, Uc.shape[1] - 1)])
+                traces[:, rows[node], :] = np.asarray(mapped(first.tracef, n)(xk, u, sv), float).reshape(-1, n)
         for i, f in enumerate(flights):
             if i:
                 xk = ca.DM(_start_of(problem, flights, i, np.asarray(xk, float), n))
@@ -262,9 +276,11 @@ def _build_model(mp: dict) -> MCModel:
             if npath:
                 e0 = np.asarray(mapped(f.pathf, n)(xk, ca.DM(Uc[:, 0]), sv), float).reshape(npath, n)
                 wf, wn = np.maximum(wf, e0), np.maximum(wn, e0)
+            keep(0, Uc)
             for j in range(len(tn) - 1):
                 a, b = Uc[:, j], (Uc[:, j + 1] if d["control"] == "linear" else Uc[:, j])
                 xk, w, e = F(xk, ca.DM(a), ca.DM(b), float(tn[j + 1] - tn[j]), sv)
+                keep(j + 1, Uc)
                 if npath:
                     w = np.asarray(w, float).reshape(npath, n)
                     e = np.asarray(e, float).reshape(npath, n)
@@ -274,9 +290,17 @@ def _build_model(mp: dict) -> MCModel:
             for r, (_, cn) in enumerate(f.path_named):
                 np.maximum(worst_fine[cn.name], wf[r], out=worst_fine[cn.name])
                 np.maximum(worst_node[cn.name], wn[r], out=worst_node[cn.name])
-        return np.vstack(stack), worst_fine, worst_node, {}
+        return np.vstack(stack), worst_fine, worst_node, dict(zip(first.trace_names, traces)) if rows else {}
 
-    return MCModel(nx=first.n, nu=nu, ns=ns, rhs=rhs_np, terminal=terminal, path=path, kernel=kernel)
+    def traced(xv, uv, sv):
+        n = xv.shape[1]
+        out = np.asarray(mapped(first.tracef, n)(xv, np.broadcast_to(uv, (nu, n)), sv if ns else np.zeros((0, n))),
+                         float).reshape(-1, n)
+        return dict(zip(first.trace_names, out))
+
+    sampled = ("objective",) + tuple(dict.fromkeys(f"boundary:{cn.name}" for cn in bnd))
+    return MCModel(nx=first.n, nu=nu, ns=ns, rhs=rhs_np, terminal=terminal, path=path, kernel=kernel,
+                   trace=traced if problem.single else None, sampled_terminal=sampled)
 
 
 def _start_of(problem, flights, i: int, xprev: np.ndarray, n: int) -> np.ndarray:

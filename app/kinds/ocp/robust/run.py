@@ -9,6 +9,7 @@ import time
 
 from app.kinds.base import JobContext, RunOutcome, json_value, outcome_from_status
 from app.kinds.ocp.params import OcpParams, parser_data
+from app.kinds.ocp.robust.samples import monte_carlo_block
 from app.kinds.ocp.result import build_result
 
 CHUNK_SIZE = 2500        # samples per chunk: the unit of the fan-out across workers
@@ -26,11 +27,14 @@ def run_robust(params: OcpParams, ctx: JobContext, *, guess: dict | None, t_star
 
     rs, block, summary = design_and_confirm(problem, params=parser_data(params), run_monte_carlo=monte_carlo, seed=SEED,
                                       initial_guess=guess, on_progress=ctx.progress, should_stop=ctx.should_stop)
-    result = build_result(rs.solution, params, wall_time_s=time.perf_counter() - t_start, warm_start=None)
+    from_job = params.initial_guess.from_job if guess is not None else None   # warm-starts the deterministic twin
+    result = build_result(rs.solution, params, wall_time_s=time.perf_counter() - t_start, warm_start=from_job)
     if block is None:
         return outcome_from_status(rs.solution.status, result)
     if summary is not None and "distribution" in summary:    # which workers computed which chunks
         block["distribution"] = summary["distribution"]
+    if summary is not None:
+        block["monte_carlo"] = monte_carlo_block(summary)
     result["robust"] = json_value(block)
     outcome = outcome_from_status(rs.solution.status, result)
     if outcome.status != "succeeded" or block["confirmed"]:

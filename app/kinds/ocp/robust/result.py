@@ -6,7 +6,7 @@ from typing import Any
 
 from pydantic import Field
 
-from app.kinds.result_models import Num, ResultModel
+from app.kinds.result_models import Num, ResultModel, Series
 
 
 class OcpRobustObjective(ResultModel):
@@ -32,6 +32,38 @@ class OcpRobustConstraint(ResultModel):
                                          "(scaled excess; <= 0 held), at the nodes and between them")
 
 
+class OcpRobustBand(ResultModel):
+    """One quantity over the Monte Carlo's draws at the kept node times."""
+
+    mean: Series = Field(description="Mean over the draws that stayed finite")
+    std: Series = Field(description="Standard deviation over the same draws")
+
+
+class OcpRobustEnvelope(ResultModel):
+    """The Monte Carlo's envelope: mean and standard deviation of every state and of each named path
+    constraint's value at the node times (at most 200 of them, evenly picked)."""
+
+    t: Series = Field(description="Node times, in the problem's time unit")
+    states: dict[str, OcpRobustBand] = Field(default_factory=dict, description="state name -> mean and std")
+    constraints: dict[str, OcpRobustBand] = Field(default_factory=dict,
+                                                  description="named path constraint -> mean and std of its value")
+
+
+class OcpRobustSamples(ResultModel):
+    """Per-draw values (the first 2000 draws; a draw that did not stay finite is null)."""
+
+    objective: Series = Field(description="The objective of each draw, in the user's sense")
+    boundary: dict[str, Series] = Field(default_factory=dict,
+                                        description="named boundary constraint -> its value in each draw")
+
+
+class OcpRobustMonteCarlo(ResultModel):
+    """What the plots, the CSV tables and a study read of the Monte Carlo beyond its statistics."""
+
+    envelope: OcpRobustEnvelope | None = Field(None, description="Mean and std over time")
+    samples: OcpRobustSamples | None = Field(None, description="Per-draw terminal values")
+
+
 class OcpRobustResult(ResultModel):
     """Robust design: the statistics of the design over its Monte Carlo and whether it is confirmed."""
 
@@ -54,3 +86,5 @@ class OcpRobustResult(ResultModel):
                                                 "chunks, their size and who computed them")
     timing: dict[str, Any] = Field(default_factory=dict, description="Seconds: deterministic twin, robust NLP, "
                                    "Monte Carlo; iterations")
+    monte_carlo: OcpRobustMonteCarlo | None = Field(None, description="The Monte Carlo's envelope and per-draw "
+                                                    "values (the plots, the CSV tables)")
