@@ -8,7 +8,9 @@ Each case is a linear-quadratic problem of the width and length asked (``n`` sta
 few iterations, so the figure is what the job builds (the NLP, its derivatives, the solver's factors,
 the check solve on the finer mesh), not how long it searches.  The peak is the child's own high-water
 mark (``VmHWM``); the estimate is :func:`app.service.job_memory.measured_mb` (without the margin).
-Figures go to ``benchmarks/results/latest.json`` under ``ocp_memory``.
+Figures go to ``benchmarks/results/latest.json`` under ``ocp_memory``, and their table to README.md
+between ``<!-- ocp_memory table -->`` and ``<!-- /ocp_memory table -->`` (``--readme-only`` rewrites the
+table from latest.json without measuring).
 """
 from __future__ import annotations
 
@@ -57,6 +59,16 @@ def phased(k: int, n: int, m: int, intervals: int) -> dict:
     return {"phases": phases, "objective": {"sense": "minimize", "integrand": _integrand(n, m)}}
 
 
+# What each case is, for the README's table.
+SIZES = {
+    "narrow-long": "4 states, 2 controls, 1,000 intervals",
+    "wide": "30 states, 10 controls, 200 intervals",
+    "wider": "50 states, 20 controls, 150 intervals",
+    "wide-lgl": "20 states, 8 controls, 150 LGL intervals of 5 nodes",
+    "three-phase": "3 phases of 6 states, 2 controls, 400 intervals",
+    "three-phase-wide": "3 phases of 20 states, 8 controls, 100 intervals",
+}
+
 CASES = {
     "narrow-long": lambda: single(4, 2, 1000),
     "wide": lambda: single(30, 10, 200),
@@ -92,17 +104,43 @@ def measure(params: dict, timeout_s: float = 900) -> dict:
     """Run ``params`` in a fresh process: ``{status, error, peak_mb}``."""
     out = subprocess.run([sys.executable, "-m", "benchmarks.ocp_memory", "--child", json.dumps(params)],
                          cwd=ROOT, capture_output=True, text=True, timeout=timeout_s, check=True,
-                         env={**os.environ, "PYTHONPATH": str(ROOT)})
+                         # the widest integrands (70 squares) pass the default 400 parse-tree nodes
+                         env={**os.environ, "PYTHONPATH": str(ROOT), "TRAJLAB_OCP_MAX_EXPRESSION_NODES": "2000"})
     return json.loads(next(l for l in out.stdout.splitlines() if l.startswith("RESULT ")).removeprefix("RESULT "))
+
+
+README = ROOT / "README.md"
+BEGIN, END = "<!-- ocp_memory table -->", "<!-- /ocp_memory table -->"
+
+
+def table(entry: dict) -> str:
+    """The README's table of ``entry`` (latest.json's ``ocp_memory``): each case's size, estimate and peak."""
+    rows = ["| case | problem | estimate MB | measured peak MB | estimate / peak |", "|---|---|---|---|---|"]
+    for name, f in entry["figures"].items():
+        rows.append(f"| `{name}` | {SIZES.get(name, '')} | {f['estimate_mb']:.0f} | {f['peak_mb']:.0f} | "
+                    f"{f['ratio']:.2f} |")
+    return "\n".join(rows) + f"\n\n(`python -m benchmarks.ocp_memory`, {entry['when']}, {entry['machine']})"
+
+
+def write_readme(entry: dict) -> None:
+    text = README.read_text()
+    head, rest = text.split(BEGIN, 1)
+    _, tail = rest.split(END, 1)
+    README.write_text(f"{head}{BEGIN}\n{table(entry)}\n{END}{tail}")
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--cases", default=",".join(CASES))
     ap.add_argument("--child", help=argparse.SUPPRESS)
+    ap.add_argument("--readme-only", action="store_true", help="rewrite README's table from latest.json only")
     args = ap.parse_args()
     if args.child:
         return child(args.child)
+    from benchmarks.results import LATEST, write_results
+    if args.readme_only:
+        write_readme(json.loads(LATEST.read_text())["ocp_memory"])
+        return 0
     from app.service.job_memory import measured_mb
 
     figures = {}
@@ -114,8 +152,8 @@ def main() -> int:
         r.update(estimate_mb=est, ratio=est / r["peak_mb"])
         figures[name] = r
         print(f"{name:<20}{r['status']:<11}{est:>13.0f}{r['peak_mb']:>10.0f}{r['ratio']:>8.2f}", flush=True)
-    from benchmarks.results import write_results
     write_results("ocp_memory", figures)
+    write_readme(json.loads(LATEST.read_text())["ocp_memory"])
     return 0
 
 
