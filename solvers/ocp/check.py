@@ -18,7 +18,7 @@ import numpy as np
 
 from solvers.ocp.growth import INTERVALS, growth
 from solvers.ocp.costates import PhaseMultipliers, costates
-from solvers.ocp.hamiltonian import evaluate
+from solvers.ocp.hamiltonian import HamiltonianFunctions, evaluate, node_rates
 from solvers.ocp.hamiltonian import functions as h_functions
 from solvers.ocp.hamiltonian import nodal as hamiltonian
 from solvers.ocp.optimality import checks as optimality_checks
@@ -102,13 +102,17 @@ def check_phase(block, num: Numbers, z: np.ndarray, *, t0: float, agreement: flo
         traj.update({n: E[i] for i, (n, _) in enumerate(ph.expressions)})
     extra = {}
     if mult is not None:
-        lam, mapped = costates(nlp=nlp, num=num, att=att, mu=mult.defects, t_nodes=t_nodes, c=c, t0=t0,
-                               hx=_hx(nlp, num, mult, att, U, t_nodes, c, t0))
-        H, size = hamiltonian(fns=fns, sign=nlp.sign, att=att, lam=lam, U=U, t_nodes=t_nodes, c=c, t0=t0)
-        verification["optimality"] = optimality_checks(problem=prob, nlp=nlp, att=att, lam=lam, U=U, t_nodes=t_nodes,
-                                                       c=c, t0=t0, H=H, size=size, num=num,
+        # built and evaluated once for the costates, H and every optimality check of this phase
+        hf = h_functions(fns, nlp.sign)
+        mu, cb = path_rates(phase=ph, mult=mult, num=num, grid=grid, t_nodes=t_nodes)
+        F = node_rates(fns=fns, att=att, U=U, t_nodes=t_nodes, c=c, t0=t0)
+        hx = _hx(hf, att=att, U=U, t_nodes=t_nodes, c=c, t0=t0, mu=mu, cb=cb) if grid.method == "lgl" else None
+        lam, mapped = costates(nlp=nlp, num=num, att=att, mu=mult.defects, t_nodes=t_nodes, c=c, t0=t0, hx=hx)
+        H, size = hamiltonian(fns=fns, sign=nlp.sign, lam=lam, F=F)
+        verification["optimality"] = optimality_checks(problem=prob, nlp=nlp, hf=hf, att=att, lam=lam, U=U,
+                                                       t_nodes=t_nodes, c=c, t0=t0, F=F, H=H, size=size, num=num,
                                                        tolerance=max(agreement, AGREEMENT_TOLERANCE),
-                                                       mult=mult, mapped=mapped,
+                                                       mult=mult, path=(mu, cb), mapped=mapped,
                                                        dense=(ver.t, ver.x, ver.u) if ver.ok else None)
         extra = {"costates": {s.name: lam[i] for i, s in enumerate(ph.states)}, "hamiltonian": H}
     report = {"name": block.name, "t0": t0, "tf": att.tf, **extra,
@@ -128,10 +132,9 @@ def check_phase(block, num: Numbers, z: np.ndarray, *, t0: float, agreement: flo
                       report=report, errors=errors)
 
 
-def _hx(nlp, num, mult, att, U, t_nodes, c, t0):
-    """``dH/dx`` at node ``j`` for costate ``lam``, the node's path multipliers included (LGL's end corrections)."""
-    hf = h_functions(nlp.fns, nlp.sign)
-    mu, cb = path_rates(phase=None, mult=mult, num=num, grid=nlp.grid, t_nodes=t_nodes)
+def _hx(hf: HamiltonianFunctions, *, att, U, t_nodes, c, t0, mu, cb):
+    """``dH/dx`` at node ``j`` for costate ``lam``, the node's path multipliers ``mu`` (on the bounds ``cb``)
+    included: LGL's end corrections."""
 
     def hx(j: int, lam: np.ndarray) -> np.ndarray:
         return evaluate(hf.dH_dx, t=t_nodes[j:j + 1], X=att.X[:, j:j + 1], U=U[:, j:j + 1], att=att, c=c, t0=t0,

@@ -26,6 +26,7 @@ class HamiltonianFunctions:
     dH_dx: ca.Function
     dpath_du: ca.Function         # the path term's share of dH/du, mu' dc/du
     mixed: np.ndarray             # (npath,) bool: the path constraint names a control
+    autonomous: bool              # nothing names t (the dynamics, integrand, path constraints): H is constant
 
 
 def functions(fns, sign: float) -> HamiltonianFunctions:
@@ -36,17 +37,19 @@ def functions(fns, sign: float) -> HamiltonianFunctions:
     H = ca.dot(lam, f[:fns.nx]) + (sign * f[fns.nx] if fns.nq else 0)
     mixed = np.zeros(fns.npath, bool)
     term = ca.SX(0)
+    c = fns.path(t, x, u, th, cc, s0, sf)
     if fns.npath:
-        c = fns.path(t, x, u, th, cc, s0, sf)
         term = ca.dot(mu, c - cb)
         J = ca.jacobian(c, u)
         mixed = np.array([J[i, :].nnz() > 0 for i in range(fns.npath)], bool)
     H = H + term
+    named = ca.vertcat(f, c)
     args = [t, x, u, th, cc, s0, sf, lam, mu, cb]
     return HamiltonianFunctions(H=ca.Function("ocp_H", args, [H]),
                                 dH_du=ca.Function("ocp_dH_du", args, [ca.gradient(H, u)]),
                                 dH_dx=ca.Function("ocp_dH_dx", args, [ca.gradient(H, x)]),
-                                dpath_du=ca.Function("ocp_dpath_du", args, [ca.gradient(term, u)]), mixed=mixed)
+                                dpath_du=ca.Function("ocp_dpath_du", args, [ca.gradient(term, u)]), mixed=mixed,
+                                autonomous=not any(ca.depends_on(named, v) for v in (t, s0, sf)))
 
 
 def evaluate(fn: ca.Function, *, t, X, U, att, c, t0: float, lam, mu=None, cb=None) -> np.ndarray:
@@ -59,12 +62,15 @@ def evaluate(fn: ca.Function, *, t, X, U, att, c, t0: float, lam, mu=None, cb=No
     return np.asarray(fn.map(n)(np.reshape(t, (1, n)), X, U, att.theta, c, t0, att.tf, lam, mu, cb))
 
 
-def nodal(*, fns, sign: float, att, lam: np.ndarray, U: np.ndarray, t_nodes: np.ndarray, c,
-          t0: float) -> tuple[np.ndarray, float]:
-    """H at the nodes (the path term is zero there by complementarity), and the size of its terms (the
-    largest sum of their magnitudes over the nodes: what a check's error is measured against, as H itself
-    may be near 0)."""
-    F = np.asarray(fns.rhs.map(t_nodes.size)(t_nodes[None, :], att.X, U, att.theta, c, t0, att.tf))
+def node_rates(*, fns, att, U: np.ndarray, t_nodes: np.ndarray, c, t0: float) -> np.ndarray:
+    """``(nx + nq, N)``: the dynamics and the Lagrange integrand at the nodes (H's terms, the states' rates)."""
+    return np.asarray(fns.rhs.map(t_nodes.size)(t_nodes[None, :], att.X, U, att.theta, c, t0, att.tf))
+
+
+def nodal(*, fns, sign: float, lam: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, float]:
+    """H at the nodes from their :func:`node_rates` ``F`` (the path term is zero there by complementarity), and
+    the size of its terms (the largest sum of their magnitudes over the nodes: what a check's error is
+    measured against, as H itself may be near 0)."""
     terms = lam * F[:fns.nx]
     H, size = np.sum(terms, axis=0), np.sum(np.abs(terms), axis=0)
     if fns.nq:

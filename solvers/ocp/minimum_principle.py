@@ -21,8 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from solvers.ocp.hamiltonian import evaluate
-from solvers.ocp.hamiltonian import functions as h_functions
+from solvers.ocp.hamiltonian import HamiltonianFunctions, evaluate
 
 GRID = 41            # candidate values along each control's range
 ZOOM = 21            # candidates of the refinement around the best one, within one grid step
@@ -31,18 +30,17 @@ CORNERS = 6          # at most this many controls have all their bounds' corners
 FEASIBLE = 1e-6      # a candidate may exceed a mixed constraint's bound by this fraction of its scale
 
 
-def minimum_principle(*, problem, fns, nlp_grid, sign: float, att, lam: np.ndarray, t_nodes: np.ndarray, c,
-                      t0: float, dense: tuple[np.ndarray, np.ndarray, np.ndarray],
+def minimum_principle(*, problem, fns, hf: HamiltonianFunctions, nlp_grid, att, lam: np.ndarray,
+                      t_nodes: np.ndarray, c, t0: float, dense: tuple[np.ndarray, np.ndarray, np.ndarray],
                       path_scale: np.ndarray) -> tuple[float, float, int] | None:
     """The worst gap ``H(u used) - min H`` over the admissible controls (module docstring), its time and the
-    samples checked, at the samples ``dense = (t, x, u)`` of the re-flight."""
+    samples checked, at the samples ``dense = (t, x, u)`` of the re-flight; ``hf``: the phase's Hamiltonian."""
     ph = problem.phase
     td, xd, ud = (np.asarray(a, float) for a in dense)
     nx, nu = fns.nx, fns.nu
     S = td.size
     if not S:
         return None
-    hf = h_functions(fns, sign)
     ld = np.vstack([np.interp(td, t_nodes, lam[i]) for i in range(nx)])
     lo, hi = np.empty(nu), np.empty(nu)
     for i, k in enumerate(ph.controls):

@@ -41,12 +41,10 @@ that gap ``dt``, and H departs by up to ``|du| |dsigma/dt| dt``.  The sum of tho
 """
 from __future__ import annotations
 
-import casadi as ca
 import numpy as np
 
 from solvers.ocp.costates import right_costates
-from solvers.ocp.hamiltonian import evaluate
-from solvers.ocp.hamiltonian import functions as h_functions
+from solvers.ocp.hamiltonian import HamiltonianFunctions, evaluate
 from solvers.ocp.minimum_principle import minimum_principle
 from solvers.transcription.lgl import lgl_weights
 
@@ -69,12 +67,11 @@ def node_weights(grid, t_nodes: np.ndarray) -> np.ndarray:
 
 
 def path_rates(*, phase, mult, num, grid, t_nodes) -> tuple[np.ndarray, np.ndarray]:
-    """The path constraints' multipliers per unit time at the nodes, and the bound each one's sign names
-    (``phase`` None: zeros, for derivatives that do not read them)."""
+    """The path constraints' multipliers per unit time at the nodes, and the bound each one's sign names."""
     pi = mult.path / num.path_scale[:, None] if mult.path.size else mult.path
     mu = pi / node_weights(grid, t_nodes)[None, :] if pi.size else pi
     cb = np.zeros_like(mu)
-    for j, k in enumerate(phase.path if phase is not None else ()):
+    for j, k in enumerate(phase.path):
         cb[j] = np.where(pi[j] > 0, k.upper if k.upper is not None else 0.0,
                          k.lower if k.lower is not None else 0.0)
     return mu, cb
@@ -93,27 +90,28 @@ def _entry(value: float, tolerance: float, **more) -> dict:
     return {"value": value, "tolerance": tolerance, "held": bool(value <= tolerance), **more}
 
 
-def checks(*, problem, nlp, att, lam, U, t_nodes, c, t0: float, H: np.ndarray, size: float, tolerance: float,
-           num, mult, mapped: dict, dense: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> dict:
-    """``verification.optimality`` of the phase (module docstring); ``size``: the size of H's terms; ``mult``:
-    its :class:`solvers.ocp.costates.PhaseMultipliers`; ``mapped``: LGL's mapped end costates;
-    ``dense``: the re-flight's ``(t, x, u)`` samples, for the minimum principle (none: not checked)."""
+def checks(*, problem, nlp, hf: HamiltonianFunctions, att, lam, U, t_nodes, c, t0: float, F: np.ndarray,
+           H: np.ndarray, size: float, tolerance: float, num, mult, path: tuple[np.ndarray, np.ndarray],
+           mapped: dict, dense: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> dict:
+    """``verification.optimality`` of the phase (module docstring); ``hf``: its Hamiltonian; ``F``: the
+    dynamics at the nodes (:func:`solvers.ocp.hamiltonian.node_rates`); ``size``: the size of H's terms; ``mult``:
+    its :class:`solvers.ocp.costates.PhaseMultipliers`; ``path``: its :func:`path_rates`; ``mapped``: LGL's
+    mapped end costates; ``dense``: the re-flight's ``(t, x, u)`` samples, for the minimum principle (none:
+    not checked)."""
     fns, ph, grid = nlp.fns, problem.phase, nlp.grid
     scale = size if size > 0.0 else 1.0
-    hf = h_functions(fns, nlp.sign)
-    mu, cb = path_rates(phase=ph, mult=mult, num=num, grid=grid, t_nodes=t_nodes)
     out: dict[str, dict] = {}
     piecewise = grid.method == "multiple_shooting" and grid.control == "constant"
     Hvals, H_end, allowance = H, float(H[-1]), 0.0
     common = {"att": att, "c": c, "t0": t0}
     plus = right_costates(nlp=nlp, num=num, mult=mult, lam=lam)
+    sigma = _switching(hf=hf, piecewise=piecewise, att=att, lam=lam, plus=plus, U=U, t_nodes=t_nodes, c=c,
+                       t0=t0) if fns.nu else ()
     if piecewise and fns.nu:
         Uc, X = att.U, att.X
-        ta, tb = t_nodes[:-1], t_nodes[1:]
-        Ha = evaluate(hf.H, t=ta, X=X[:, :-1], U=Uc, lam=plus[:, :-1], **common)[0]
-        Hb = evaluate(hf.H, t=tb, X=X[:, 1:], U=Uc, lam=lam[:, 1:], **common)[0]
-        Sa = evaluate(hf.dH_du, t=ta, X=X[:, :-1], U=Uc, lam=plus[:, :-1], **common)
-        Sb = evaluate(hf.dH_du, t=tb, X=X[:, 1:], U=Uc, lam=lam[:, 1:], **common)
+        Ha = evaluate(hf.H, t=t_nodes[:-1], X=X[:, :-1], U=Uc, lam=plus[:, :-1], **common)[0]
+        Hb = evaluate(hf.H, t=t_nodes[1:], X=X[:, 1:], U=Uc, lam=lam[:, 1:], **common)[0]
+        Sa, Sb = sigma
         Hvals, H_end = np.concatenate([Ha, Hb]), float(Hb[-1])
         if Uc.shape[1] > 1:
             h = np.diff(t_nodes)
@@ -123,34 +121,30 @@ def checks(*, problem, nlp, att, lam, U, t_nodes, c, t0: float, H: np.ndarray, s
     elif fns.nu and t_nodes.size > 1:
         # controls at the nodes: where one moves across the gap between two nodes, the switching function's
         # zero can sit anywhere in that gap and H departs from its value by up to |du| |dsigma/dt| dt there
-        S = evaluate(hf.dH_du, t=t_nodes, X=att.X, U=U, lam=lam, **common)
+        (S,) = sigma
         dt = np.diff(t_nodes)
         ok = dt > 0.0                                     # a node shared by two LGL segments appears once
         sdot = np.diff(S, axis=1)[:, ok] / dt[ok]
         allowance = float(np.sum(np.abs(np.diff(U, axis=1))[:, ok] * np.abs(sdot) * dt[ok]))
-    t, s0, sf = ca.SX.sym("t"), ca.SX.sym("t0"), ca.SX.sym("tf")
-    x, u = ca.SX.sym("x", fns.nx), ca.SX.sym("u", fns.nu)
-    th, cc = ca.SX.sym("th", fns.ntheta), ca.SX.sym("c", fns.nc)
-    named = ca.vertcat(fns.rhs(t, x, u, th, cc, s0, sf), fns.path(t, x, u, th, cc, s0, sf))
     slack = allowance / scale
-    if not any(ca.depends_on(named, v) for v in (t, s0, sf)):
+    if hf.autonomous:
         out["hamiltonian_constant"] = _entry(float(np.ptp(Hvals)) / scale, tolerance + slack, allowance=slack)
     if mult.upper[0] > mult.lower[0]:              # the final time is free
         want = -float(mult.ends[0] + mult.bounds[0]) / num.t_scale
         out["hamiltonian_final"] = _entry(abs(H_end - want) / scale, tolerance + slack, expected=want,
                                           allowance=slack)
     if fns.nu:
-        st = _stationarity(problem=problem, nlp=nlp, hf=hf, att=att, lam=lam, plus=plus, U=U, t_nodes=t_nodes, c=c, t0=t0,
-                           mu=mu, cb=cb, num=num, mult=mult)
+        mu, cb = path
+        st = _stationarity(problem=problem, nlp=nlp, hf=hf, att=att, lam=lam, plus=plus, U=U, t_nodes=t_nodes, c=c,
+                           t0=t0, mu=mu, cb=cb, sigma=sigma, num=num, mult=mult)
         if st is not None:
             out["stationarity"] = _entry(st[0] / scale, tolerance, **st[1])
         if dense is not None:
-            mp = minimum_principle(problem=problem, fns=fns, nlp_grid=grid, sign=nlp.sign, att=att, lam=lam,
+            mp = minimum_principle(problem=problem, fns=fns, hf=hf, nlp_grid=grid, att=att, lam=lam,
                                    t_nodes=t_nodes, c=c, t0=t0, dense=dense, path_scale=num.path_scale)
             if mp is not None:
                 out["minimum_principle"] = _entry(mp[0] / scale, tolerance, t=mp[1], samples=mp[2])
-    tv = _transversality(names=ph.state_names, nlp=nlp, att=att, lam=lam, U=U, t_nodes=t_nodes, c=c, t0=t0, num=num, mult=mult,
-                         mapped=mapped)
+    tv = _transversality(names=ph.state_names, nlp=nlp, lam=lam, F=F, num=num, mult=mult, mapped=mapped)
     if tv is not None:
         out["transversality"] = _entry(tv[0] / scale, tolerance, **tv[1])
     held = all(v["held"] for v in out.values())
@@ -160,9 +154,20 @@ def checks(*, problem, nlp, att, lam, U, t_nodes, c, t0: float, H: np.ndarray, s
     return {"held": held, "checks": out, "message": message}
 
 
-def _stationarity(*, problem, nlp, hf, att, lam, plus, U, t_nodes, c, t0, mu, cb, num, mult):
+def _switching(*, hf, piecewise: bool, att, lam, plus, U, t_nodes, c, t0) -> tuple[np.ndarray, ...]:
+    """The switching function ``sigma = dH/du`` without the path term: for piecewise-constant controls the
+    pair (each interval's start, with the right costates; its end), else ``(its values at the nodes,)``."""
+    common = {"att": att, "c": c, "t0": t0}
+    if piecewise:
+        X = att.X
+        return (evaluate(hf.dH_du, t=t_nodes[:-1], X=X[:, :-1], U=att.U, lam=plus[:, :-1], **common),
+                evaluate(hf.dH_du, t=t_nodes[1:], X=X[:, 1:], U=att.U, lam=lam[:, 1:], **common))
+    return (evaluate(hf.dH_du, t=t_nodes, X=att.X, U=U, lam=lam, **common),)
+
+
+def _stationarity(*, problem, nlp, hf, att, lam, plus, U, t_nodes, c, t0, mu, cb, sigma, num, mult):
     """The worst ``|dH/du|`` times the control's scale where the controls are strictly inside their box, and
-    where it was measured (``nodes`` or ``intervals``), or None where nowhere."""
+    where it was measured (``nodes`` or ``intervals``), or None where nowhere; ``sigma``: :func:`_switching`."""
     ph, grid, fns = problem.phase, nlp.grid, nlp.fns
     common = {"att": att, "c": c, "t0": t0}
     # a control's size: its scale, else its bounds' magnitude, else (unbounded) the largest value it takes
@@ -179,8 +184,7 @@ def _stationarity(*, problem, nlp, hf, att, lam, plus, U, t_nodes, c, t0, mu, cb
         if not inside.any():
             return None
         h = np.diff(t_nodes)
-        Sa = evaluate(hf.dH_du, t=t_nodes[:-1], X=X[:, :-1], U=Uc, lam=plus[:, :-1], **common)
-        Sb = evaluate(hf.dH_du, t=t_nodes[1:], X=X[:, 1:], U=Uc, lam=lam[:, 1:], **common)
+        Sa, Sb = sigma
         G = 0.5 * (Sa + Sb)
         if fns.npath:       # the path rows of the interval's nodes that hold its control (the last: two)
             pi = mult.path / num.path_scale[:, None]
@@ -205,7 +209,7 @@ def _stationarity(*, problem, nlp, hf, att, lam, plus, U, t_nodes, c, t0, mu, cb
         mid = {"X": 0.5 * (X[:, :-1] + X[:, 1:]), "U": 0.5 * (U[:, :-1] + U[:, 1:]),
                "lam": 0.5 * (plus[:, :-1] + lam[:, 1:])}
         Sm = evaluate(hf.dH_du, t=tm, **mid, **common)
-        Sn = evaluate(hf.dH_du, t=t_nodes, X=X, U=U, lam=lam, **common)          # the left intervals' ends
+        (Sn,) = sigma                                                            # the left intervals' ends
         Sp = evaluate(hf.dH_du, t=t_nodes, X=X, U=U, lam=plus, **common)         # the right intervals' starts
         h = np.diff(t_nodes)
         acc = np.zeros_like(Sn)
@@ -215,13 +219,13 @@ def _stationarity(*, problem, nlp, hf, att, lam, plus, U, t_nodes, c, t0, mu, cb
     return float(np.max(np.abs(G[:, inside]) * uscale[:, None])), {"nodes": int(inside.sum())}
 
 
-def _transversality(*, names, nlp, att, lam, U, t_nodes, c, t0, num, mult, mapped):
+def _transversality(*, names, nlp, lam, F, num, mult, mapped):
     """The worst gap between a free end's costate and what the ends' multipliers say it is, times the
-    largest rate of that state over the nodes, and where; None when every end state is fixed."""
+    largest rate of that state over the nodes (``F``: the dynamics there), and where; None when every end
+    state is fixed."""
     fns, g = nlp.fns, nlp.grid
     nx = fns.nx
-    F = np.asarray(fns.rhs.map(t_nodes.size)(t_nodes[None, :], att.X, U, att.theta, c, t0, att.tf))[:nx]
-    rate = np.max(np.abs(F), axis=1)
+    rate = np.max(np.abs(F[:nx]), axis=1)
     worst, where = -1.0, None
     for end, node, sign in (("initial", 0, -1.0), ("final", g.n_nodes - 1, 1.0)):
         cols = 1 + fns.ntheta + nx * node + np.arange(nx)
