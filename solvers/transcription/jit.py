@@ -33,7 +33,8 @@ worker pools) unbounded compiles swamped the solves they were meant to speed up.
   service, pool and test on the machine, whatever its cache directory), then on ``compile.lock`` in the
   cache directory (the compose workers share the cache volume but not ``/tmp``); whoever gets them second
   finds the library already there and compiles nothing (a structure is compiled once);
-* **at low priority**: the compiler runs under ``os.nice(19)``, so a solve waiting for a core wins it;
+* **at low priority**: the compiler runs under ``os.nice(19)`` in a session of its own whose autogroup is at
+  nice 19 too (:func:`_low_priority`: why both), so a solve waiting for a core wins it;
 * **only structures likely to come back** (``background`` mode): a structure is compiled when it has been
   seen before (``TRAJLAB_JIT_SEEN`` sightings, default 2, counted per key in ``nlp_<key>.seen`` in the
   cache directory, across processes and restarts; a process's solver cache handing out a built solver
@@ -51,10 +52,13 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import ctypes
+import ctypes.util
 import fcntl
 import hashlib
 import os
 import shutil
+import signal
 import subprocess
 import tempfile
 import threading
@@ -222,9 +226,34 @@ def _host_lock(directory: Path):
         yield
 
 
+try:
+    _LIBC: ctypes.CDLL | None = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
+except OSError:           # not Linux
+    _LIBC = None
+PR_SET_PDEATHSIG = 1
+
+
 def _low_priority() -> None:
-    # in the compiler's child before exec: only a system call, safe in a process with threads
+    """In the compiler's child between fork and exec (system calls only: safe in a process with threads).
+
+    nice 19 alone does not keep a compile off the solves' cores: with the kernel's autogroup scheduling
+    (``/proc/sys/kernel/sched_autogroup_enabled``, on by default) nice weighs only against processes of the
+    same session, and the two pools are two sessions, so a compile started by an idle pool had its session's
+    whole share against the other pool's solve.  Hence the compiler gets a session of its own
+    (``start_new_session``) whose autogroup is at nice 19 too.  And it dies with the thread that waits for it
+    (``PR_SET_PDEATHSIG``): a pool killed mid-compile releases the lock, and an orphaned compiler would
+    then run beside the next one."""
     os.nice(19)
+    try:
+        fd = os.open("/proc/self/autogroup", os.O_WRONLY)
+        try:
+            os.write(fd, b"19")
+        finally:
+            os.close(fd)
+    except OSError:       # no autogroup (disabled, or not Linux): nice alone is what counts
+        pass
+    if _LIBC is not None:
+        _LIBC.prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
 
 
 def build(solver: ca.Function, key: str, lock=None) -> bool:
@@ -271,7 +300,7 @@ def _generate_and_compile(cc: str, functions, key: str, lock) -> bool:
             return False
         so = Path(tmp) / out.name
         res = subprocess.run([cc, *FLAGS, str(source), "-o", str(so), "-lm"],
-                             capture_output=True, text=True, preexec_fn=_low_priority)
+                             capture_output=True, text=True, start_new_session=True, preexec_fn=_low_priority)
         if res.returncode > 0:    # the compiler rejected the code: remembered, like one over the cap
             (out.parent / f"nlp_{key}.skip").write_text(f"{cc} exit {res.returncode}: {res.stderr[-2000:]}\n")
             return False
