@@ -48,8 +48,14 @@ class Grid:
         return int(self.offsets()[-1]) + 1
 
     @property
+    def piecewise(self) -> bool:
+        """Each interval holds one control value (multiple shooting's piecewise-constant controls); else
+        the controls sit at the nodes."""
+        return self.method == "multiple_shooting" and self.control == "constant"
+
+    @property
     def n_controls(self) -> int:
-        if self.method == "multiple_shooting" and self.control == "constant":
+        if self.piecewise:
             return self.intervals
         return self.n_nodes
 

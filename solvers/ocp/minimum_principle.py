@@ -58,7 +58,7 @@ def minimum_principle(*, problem, fns, hf: HamiltonianFunctions, nlp_grid, att, 
         upper = upper + slack + np.maximum(used - upper, 0.0)
 
     grid = nlp_grid
-    if grid.method == "multiple_shooting" and grid.control == "constant":
+    if grid.piecewise:
         idx = np.clip(np.searchsorted(t_nodes, td, side="right") - 1, 0, grid.intervals - 1)
         member = np.zeros((S, grid.intervals))
         member[np.arange(S), idx] = 1.0
@@ -89,7 +89,7 @@ def minimum_principle(*, problem, fns, hf: HamiltonianFunctions, nlp_grid, att, 
                 bad[a:a + k] = np.any((P < lower[:, None, :]) | (P > upper[:, None, :]), axis=0)
         out = pool(out)
         if mixed.size:
-            if grid.method == "multiple_shooting" and grid.control == "constant":
+            if grid.piecewise:
                 bad = (bad.astype(float) @ member)[:, idx] > 0.0       # a constant control: the whole interval
             out = np.where(bad, np.inf, out)
         return out

@@ -101,7 +101,7 @@ def checks(*, problem, nlp, hf: HamiltonianFunctions, att, lam, U, t_nodes, c, t
     fns, ph, grid = nlp.fns, problem.phase, nlp.grid
     scale = size if size > 0.0 else 1.0
     out: dict[str, dict] = {}
-    piecewise = grid.method == "multiple_shooting" and grid.control == "constant"
+    piecewise = grid.piecewise
     Hvals, H_end, allowance = H, float(H[-1]), 0.0
     common = {"att": att, "c": c, "t0": t0}
     plus = right_costates(nlp=nlp, num=num, mult=mult, lam=lam)
@@ -176,7 +176,7 @@ def _stationarity(*, problem, nlp, hf, att, lam, plus, U, t_nodes, c, t0, mu, cb
                        for i, k in enumerate(ph.controls)])
     spans = [(k.upper - k.lower) if k.lower is not None and k.upper is not None else max(1.0, float(np.ptp(U[i])))
              for i, k in enumerate(ph.controls)]
-    if grid.method == "multiple_shooting" and grid.control == "constant":
+    if grid.piecewise:
         Uc, X, m = att.U, att.X, grid.intervals
         inside = np.ones(m, bool)
         for i, k in enumerate(ph.controls):
