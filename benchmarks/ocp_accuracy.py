@@ -13,6 +13,8 @@ For each preset with a published optimum (:data:`solvers.ocp.PRESETS`: ``optimum
   that grid solved cold as a user who knew it would: build, IPOPT, re-flight and the check solve every
   answer gets now.  A bang-bang problem's error does not fall monotonically with N (where the switch falls
   inside an interval matters), so the bisection finds *a* small grid, not always the smallest.
+The cold solve and the grid search are :mod:`benchmarks.ocp_refine`'s (:func:`~benchmarks.ocp_refine.cold`,
+:func:`~benchmarks.ocp_refine.smallest_grid`).
 
 Run ``python -m benchmarks.ocp_accuracy`` (``--only lunar-lander-bang-bang,bryson-denham``); the machine's
 load average is printed beside the times (2 shared cores: compare the ratios, not the seconds).
@@ -23,12 +25,9 @@ import argparse
 import copy
 import math
 import os
-import time
 
-from benchmarks.ocp_refine import solve_as_given
-from solvers.ocp import PRESETS, parse_problem, solve
-from solvers.ocp.symbolic import reset_caches
-from solvers.transcription.nlp import clear_cache
+from benchmarks.ocp_refine import cold, smallest_grid, solve_as_given
+from solvers.ocp import PRESETS
 
 ACCURACIES = (1e-4, 1e-6)
 CAP = 960                       # uniform grids searched up to this many intervals
@@ -62,41 +61,13 @@ def objective_error(name: str, value: float) -> float:
     return max(abs(value - optimum) / max(abs(optimum), 1.0), precision(optimum, name))
 
 
-def _cold(params: dict):
-    reset_caches()
-    clear_cache()
-    t = time.perf_counter()
-    sol = solve(parse_problem(params)) if params.get("accuracy") is not None else solve_as_given(params)
-    return sol, time.perf_counter() - t
-
-
 def smallest_uniform(name: str, target: float) -> tuple[int | None, int]:
     """``(N, probes)``: the fewest equal intervals found whose answer is within ``target`` (None past CAP)."""
-    probes = 0
-
     def ok(n: int) -> bool:
-        nonlocal probes
-        probes += 1
         sol = solve_as_given(_params(name, n))
         return sol.status.ok and objective_error(name, sol.objective) <= target
 
-    hi = int(PRESETS[name]["params"]["transcription"].get("intervals", 50))
-    if ok(hi):                          # halve down to a grid that misses
-        lo = hi // 2
-        while lo >= 2 and ok(lo):
-            lo, hi = lo // 2, lo
-    else:                               # double up to one that reaches it
-        lo = hi
-        while True:
-            if hi >= CAP:
-                return None, probes
-            lo, hi = hi, min(2 * hi, CAP)
-            if ok(hi):
-                break
-    while hi - lo > 1:                  # ok(hi), not ok(lo)
-        mid = (lo + hi) // 2
-        lo, hi = (lo, mid) if ok(mid) else (mid, hi)
-    return hi, probes
+    return smallest_grid(ok, int(PRESETS[name]["params"]["transcription"].get("intervals", 50)), cap=CAP)
 
 
 def rows(names=DEFAULT) -> dict:
@@ -108,7 +79,7 @@ def rows(names=DEFAULT) -> dict:
     figures: dict = {}
     for name in names:
         for acc in ACCURACIES:
-            sol, t_acc = _cold(_params(name, accuracy=acc))
+            sol, t_acc = cold(_params(name, accuracy=acc))
             accuracy = sol.solver.get("accuracy") or {}
             err = objective_error(name, sol.objective)
             path = "->".join(str(r["intervals"]) for r in sol.solver.get("refinement") or [])
@@ -124,7 +95,7 @@ def rows(names=DEFAULT) -> dict:
                 print(f"{'':<33}{'uniform':>9}{'>' + str(CAP):>10}{'':>11}{'':>10}{'':>8}{'':>8}  "
                       f"not within {err:.1e} up to {CAP} intervals ({probes} probes)")
             else:
-                usol, t_uni = _cold(_params(name, n_uni))
+                usol, t_uni = cold(_params(name, n_uni))
                 uerr = objective_error(name, usol.objective)
                 print(f"{'':<33}{'uniform':>9}{n_uni:>10}{uerr:>11.2e}{'':>10}{'':>8}{t_uni:>8.2f}  "
                       f"{probes} probes; accuracy / uniform time {t_acc / t_uni:.2f}x")

@@ -7,7 +7,7 @@ Each case is a linear-quadratic problem of the width and length asked (``n`` sta
 ``x_i' = -x_i/2 + u_(i mod m)``, ``integral of sum x^2 + sum u^2`` on a fixed horizon): IPOPT solves it in a
 few iterations, so the figure is what the job builds (the NLP, its derivatives, the solver's factors,
 the check solve on the finer mesh), not how long it searches.  The peak is the child's own high-water
-mark (``VmHWM``); the estimate is :func:`app.service.job_memory.measured_mb` (without the margin).
+mark (``VmHWM``, measured by :mod:`benchmarks.memory`'s child as every kind's is); the estimate is :func:`app.service.job_memory.measured_mb` (without the margin).
 Figures go to ``benchmarks/results/latest.json`` under ``ocp_memory``, and their table to README.md
 between ``<!-- ocp_memory table -->`` and ``<!-- /ocp_memory table -->`` (``--readme-only`` rewrites the
 table from latest.json without measuring).
@@ -16,12 +16,9 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import subprocess
 import sys
-from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+from benchmarks.job_memory import ROOT, child_figures
 
 
 def lq_phase(n: int, m: int, intervals: int, *, name: str | None = None, method: str = "multiple_shooting",
@@ -79,34 +76,12 @@ CASES = {
 }
 
 
-def _hwm_mb() -> float:
-    for line in Path("/proc/self/status").read_text().splitlines():
-        if line.startswith("VmHWM:"):
-            return int(line.split()[1]) / 1024
-    return -1.0
-
-
-def child(params_json: str) -> int:
-    """Run the ``ocp`` body in ``params_json`` here and print one JSON line with this process's peak."""
-    from app.kinds import KINDS
-    from app.kinds.base import InProcessContext
-    from app.service.params import resolve_params
-
-    spec = KINDS["ocp"]
-    params = spec.params_model.model_validate(resolve_params(spec, json.loads(params_json), None))
-    outcome = spec.run(params, InProcessContext())
-    print("RESULT " + json.dumps({"status": outcome.status, "error": (outcome.error or {}).get("code"),
-                                  "peak_mb": _hwm_mb()}), flush=True)
-    return 0
-
-
 def measure(params: dict, timeout_s: float = 900) -> dict:
-    """Run ``params`` in a fresh process: ``{status, error, peak_mb}``."""
-    out = subprocess.run([sys.executable, "-m", "benchmarks.ocp_memory", "--child", json.dumps(params)],
-                         cwd=ROOT, capture_output=True, text=True, timeout=timeout_s, check=True,
-                         # the widest integrands (70 squares) pass the default 400 parse-tree nodes
-                         env={**os.environ, "PYTHONPATH": str(ROOT), "TRAJLAB_OCP_MAX_EXPRESSION_NODES": "2000"})
-    return json.loads(next(l for l in out.stdout.splitlines() if l.startswith("RESULT ")).removeprefix("RESULT "))
+    """Run the ``ocp`` body ``params`` in a fresh process, as a pool child would: ``{status, error, peak_mb}``
+    (:func:`benchmarks.job_memory.child_figures`: its own high-water mark)."""
+    # the widest integrands (70 squares) pass the default 400 parse-tree nodes
+    r = child_figures("ocp", params, timeout_s, env={"TRAJLAB_OCP_MAX_EXPRESSION_NODES": "2000"})
+    return {"status": r["status"], "error": r["error"], "peak_mb": r["vmhwm_mb"]}
 
 
 README = ROOT / "README.md"
@@ -132,11 +107,8 @@ def write_readme(entry: dict) -> None:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--cases", default=",".join(CASES))
-    ap.add_argument("--child", help=argparse.SUPPRESS)
     ap.add_argument("--readme-only", action="store_true", help="rewrite README's table from latest.json only")
     args = ap.parse_args()
-    if args.child:
-        return child(args.child)
     from benchmarks.results import LATEST, write_results
     if args.readme_only:
         write_readme(json.loads(LATEST.read_text())["ocp_memory"])

@@ -21,6 +21,7 @@ from __future__ import annotations
 import copy
 import os
 import time
+from collections.abc import Callable
 
 import solvers.ocp.solver as ocp_solver
 from solvers.ocp import PRESETS, parse_problem, solve
@@ -53,11 +54,13 @@ def solve_as_given(params: dict):
         ocp_solver.TERMINAL_ROUNDS = rounds
 
 
-def _cold(name, intervals: int, accuracy: float | None):
+def cold(params: dict):
+    """``(solution, seconds)`` of :func:`solve_as_given` on ``params``, cold: the solver cache and the
+    symbolic functions cleared first, so the time counts every build."""
     reset_caches()
     clear_cache()
     t = time.perf_counter()
-    sol = solve_as_given(_params(name, intervals, accuracy))
+    sol = solve_as_given(params)
     return sol, time.perf_counter() - t
 
 
@@ -65,27 +68,45 @@ def _error(sol) -> float:
     return float(sol.verification["max_state_difference_scaled_overall"])
 
 
-def smallest_uniform(name, start: int, accuracy: float, *, cap: int = 1000) -> tuple[int, int]:
-    """``(N, probes)``: the fewest equal intervals whose re-flight is within ``accuracy``."""
+def smallest_grid(ok: Callable[[int], bool], start: int, *, cap: int) -> tuple[int | None, int]:
+    """``(N, probes)``: the fewest equal intervals ``N`` with ``ok(N)`` found (None when none up to ``cap``):
+    from ``start``, halving down while ``ok`` holds or doubling up until it does, then bisection between the
+    last miss and the first hit.  ``ok`` need not be monotone in ``N`` (where a bang-bang switch falls inside
+    an interval matters), so the bisection finds *a* small grid, not always the smallest."""
     probes = 0
 
-    def ok(n: int) -> bool:
+    def probe(n: int) -> bool:
         nonlocal probes
         probes += 1
+        return ok(n)
+
+    hi = start
+    if probe(hi):                       # halve down to a grid that misses
+        lo = hi // 2
+        while lo >= 2 and probe(lo):
+            lo, hi = lo // 2, lo
+    else:                               # double up to one that reaches it
+        lo = hi
+        while True:
+            if hi >= cap:
+                return None, probes
+            lo, hi = hi, min(2 * hi, cap)
+            if probe(hi):
+                break
+    while hi - lo > 1:                  # ok(hi), not ok(lo)
+        mid = (lo + hi) // 2
+        lo, hi = (lo, mid) if probe(mid) else (mid, hi)
+    return hi, probes
+
+
+def smallest_uniform(name, start: int, accuracy: float, *, cap: int = 1000) -> tuple[int, int]:
+    """``(N, probes)``: the fewest equal intervals whose re-flight is within ``accuracy`` (``cap`` when none)."""
+    def ok(n: int) -> bool:
         sol = solve_as_given(_params(name, n, None))
         return sol.status.ok and _error(sol) <= accuracy
 
-    lo, hi = start, start
-    while not ok(hi):
-        lo, hi = hi, min(2 * hi, cap)
-        if hi == lo:
-            return cap, probes
-    if hi == start:
-        return start, probes
-    while hi - lo > 1:                  # ok(hi), not ok(lo)
-        mid = (lo + hi) // 2
-        lo, hi = (lo, mid) if ok(mid) else (mid, hi)
-    return hi, probes
+    n, probes = smallest_grid(ok, start, cap=cap)
+    return (cap if n is None else n), probes
 
 
 def refinement_rows(names=tuple(START), reps: int = 1) -> dict:
@@ -95,11 +116,11 @@ def refinement_rows(names=tuple(START), reps: int = 1) -> dict:
           f"{'iter':>6}{'time s':>8}{'objective':>14}  mesh")
     figures = {}
     for name in names:
-        runs = [_cold(name, START[name], ACCURACY) for _ in range(reps)]
+        runs = [cold(_params(name, START[name], ACCURACY)) for _ in range(reps)]
         sol, t_ref = min(runs, key=lambda r: r[1])
         rounds = sol.solver["refinement"]
         n_uni, probes = smallest_uniform(name, START[name], ACCURACY)
-        uni = [_cold(name, n_uni, None) for _ in range(reps)]
+        uni = [cold(_params(name, n_uni, None)) for _ in range(reps)]
         usol, t_uni = min(uni, key=lambda r: r[1])
         path = " -> ".join(str(r["intervals"]) for r in rounds)
         if sol.solver.get("segment_nodes"):

@@ -29,7 +29,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import resource
 import subprocess
 import sys
 import tempfile
@@ -38,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.memory import own_mb
 from benchmarks.results import write_results
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -68,16 +68,7 @@ def child(intervals: int, warm_runs: int = 3) -> dict:
     cold = job()
     warm = min((job() for _ in range(warm_runs)), key=lambda r: r["total_s"])
     from solvers.transcription import jit
-    return {"intervals": intervals, "cold": cold, "warm": warm, "jit": jit.mode(), "rss_mb": peak_rss_mb()}
-
-
-def peak_rss_mb() -> float:
-    """This process's own high-water mark (VmHWM), not ``ru_maxrss``, which a child inherits from
-    its parent's pages at the fork (see benchmarks/job_memory.py)."""
-    for line in Path("/proc/self/status").read_text().splitlines():
-        if line.startswith("VmHWM:"):
-            return int(line.split()[1]) / 1024
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    return {"intervals": intervals, "cold": cold, "warm": warm, "jit": jit.mode(), "rss_mb": own_mb()}
 
 
 def in_fresh_process(args: list[str], env: dict | None = None, timeout: float = 1800, cwd=ROOT) -> dict:
@@ -138,7 +129,7 @@ def slsqp_baseline(m: int = 20, substeps: int = 4) -> dict:
     el, cpu = time.perf_counter() - t0, time.process_time() - c0
     T, X, _ = unpack(r.x)
     return {"name": f"scipy SLSQP, {m} intervals, FD gradients", "total_s": el, "cpu_s": cpu, "lat_deg": X[2, -1] / deg,
-            "tf_s": T, "iterations": int(r.nit), "rss_mb": peak_rss_mb()}
+            "tf_s": T, "iterations": int(r.nit), "rss_mb": own_mb()}
 
 
 def baseline(skip_dymos: bool) -> dict:

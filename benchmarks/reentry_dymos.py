@@ -12,9 +12,10 @@ without pyOptSparse, with total-derivative coloring declared as in Dymos' exampl
 from __future__ import annotations
 
 import json
-import resource
 import sys
 import time
+
+from benchmarks.memory import own_mb
 
 
 def solve(segments: int = 30) -> dict:
@@ -69,16 +70,7 @@ def solve(segments: int = 30) -> dict:
             "total_s": t_setup + t_solve, "cpu_s": cpu, "success": bool(ok),
             "lat_deg": float(p.get_val("traj.phase0.timeseries.theta", units="deg")[-1, 0]),
             "tf_s": float(p.get_val("traj.phase0.timeseries.time")[-1, 0]),
-            "rss_mb": peak_rss_mb()}
-
-
-def peak_rss_mb() -> float:
-    """This process's own high-water mark (VmHWM; ``ru_maxrss`` would count the parent's pages)."""
-    with open("/proc/self/status") as f:
-        for line in f:
-            if line.startswith("VmHWM:"):
-                return int(line.split()[1]) / 1024
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+            "rss_mb": own_mb()}
 
 
 if __name__ == "__main__":

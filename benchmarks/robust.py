@@ -37,19 +37,12 @@ import numpy as np
 
 from app.kinds.base import InProcessContext
 from benchmarks import robust_baselines as rb
+from benchmarks.memory import own_mb
 from benchmarks.results import LATEST, write_results
 from solvers import robust_reentry as rr
 from solvers.uncertainty import montecarlo as mc
 
 ROOT = Path(__file__).resolve().parents[1]
-
-
-def _peak_rss_mib() -> float:
-    """This process's own high-water mark (VmHWM; see benchmarks/job_memory.py)."""
-    for line in Path("/proc/self/status").read_text().splitlines():
-        if line.startswith("VmHWM:"):
-            return int(line.split()[1]) / 1024
-    return float("nan")
 
 
 def _robust(sol, key: str) -> float:
@@ -108,7 +101,7 @@ def child(*, warm: int, job_repeat: int, samples: int) -> dict:
             jobs.append({"total_s": time.perf_counter() - t0, "cpu_s": time.process_time() - c0,
                          "rounds": len(res.result["confirmation"]["rounds"]), "status": res.status})
         out["job"] = min(jobs, key=lambda r: r["total_s"])
-    out["rss_mib"] = _peak_rss_mib()
+    out["rss_mib"] = own_mb()
     return out
 
 

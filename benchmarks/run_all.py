@@ -21,7 +21,8 @@ from benchmarks.results import LATEST
 
 ROOT = Path(__file__).resolve().parents[1]
 # the order: quick ones first; the service benchmarks (their own servers and workers) last
-BENCHMARKS = ("lambert", "reentry", "midcourse", "intercept", "robust", "ocp", "memory", "api_load", "studies")
+BENCHMARKS = ("lambert", "reentry", "midcourse", "intercept", "robust", "ocp", "ocp_robust", "memory",
+              "api_load", "studies")
 
 
 def _stamps() -> dict[str, str]:

@@ -7,6 +7,9 @@ from __future__ import annotations
 
 import copy
 
+from solvers.ocp.catalogue.betts_shuttle import BETTS_SHUTTLE
+from solvers.ocp.catalogue.bryson_denham import BRYSON_DENHAM
+
 # A sounding rocket straight up through an exponential atmosphere: thrust throttled under a dynamic-pressure
 # limit, drag area uncertain (10%, normal).  Maximum altitude at t = 120 s.
 ROCKET_ASCENT = {
@@ -58,6 +61,40 @@ ORBIT_RAISING_ROBUST = {
     "robust": {"k": 3.0, "constraints": ["radial_speed", "circular"], "monte_carlo": {"samples": 2000}},
 }
 
+
+# Bryson & Ho, Applied Optimal Control (1975), sec. 3.11, example 1 (the bryson-denham preset, its twin): a
+# double integrator kept under x <= 1/9, its initial speed uncertain.  The dynamics are linear, so CADET's mean and sigma are exact and the Monte Carlo can only
+# differ by its sampling error.
+BRYSON_DENHAM_ROBUST = {
+    **copy.deepcopy(BRYSON_DENHAM),
+    "title": "Robust Bryson-Denham: the state limit x <= 1/9 held at mean + 3 sigma of an uncertain initial speed",
+    "uncertainty": {"initial": {"v": {"sigma": 0.01}}},
+    "robust": {"k": 3.0, "objective": "mean", "constraints": ["x_limit"], "monte_carlo": {"samples": 2000}},
+}
+
+
+def _heat_limited_shuttle() -> dict:
+    """Betts' shuttle with the heating limit q <= 70 BTU/ft^2/s and the aerodynamic errors of paper 001
+    (``CD = CD_N (1 + s1)``, ``CL = CL_N (1 + s2)``) as constants, zero in the deterministic problem."""
+    body = copy.deepcopy(BETTS_SHUTTLE)
+    body["title"] = "Space Shuttle reentry, maximum crossrange, heating rate at most 70 BTU/ft^2/s (Betts sec. 6.3)"
+    body["constants"].update(s1=0.0, s2=0.0)
+    body["expressions"]["CL"] = "(a0 + a1*a_deg)*(1 + s2)"
+    body["expressions"]["CD"] = "(b0 + b1*a_deg + b2*a_deg**2)*(1 + s1)"
+    body["path"] = [{"name": "heat_limit", "expr": "heat_rate", "upper": 70.0}]
+    return body
+
+
+SHUTTLE_HEAT_LIMITED = _heat_limited_shuttle()
+SHUTTLE_HEAT_LIMITED_ROBUST = {
+    **copy.deepcopy(SHUTTLE_HEAT_LIMITED),
+    "title": "Robust shuttle reentry (paper 001): maximum mean - 3 sigma of the final latitude, the heating limit "
+             "held at mean + 3 sigma of uncertain lift and drag",
+    "uncertainty": {"parameters": {"s1": {"distribution": "normal", "mean": 0.01, "sigma": 0.01},
+                                   "s2": {"distribution": "normal", "mean": -0.01, "sigma": 0.01}}},
+    "robust": {"k": 3.0, "constraints": ["heat_limit"], "monte_carlo": {"samples": 10000}},
+}
+
 ROBUST_PRESETS: dict[str, dict] = {
     "rocket-ascent-q-limit": {
         "description": "Sounding rocket straight up (1000 kg, 600 kg of propellant, at most 20 kN, exhaust 2500 m/s, "
@@ -86,4 +123,39 @@ ROBUST_PRESETS: dict[str, dict] = {
                        "radius (1.5207 against the twin's 1.5446; mean 1.5389, sigma 0.0061 by CADET and by the "
                        "Monte Carlo).",
         "optimum": None, "tolerance": None, "params": ORBIT_RAISING_ROBUST},
+    "bryson-denham-robust": {
+        "description": "bryson-denham (Bryson & Ho, Applied Optimal Control (1975) sec. 3.11: x' = v, v' = u, "
+                       "x(0) = x(1) = 0, v(0) = -v(1) = 1, minimize int u^2/2 dt, x <= 1/9; optimum 4) with the "
+                       "initial speed uncertain (normal, sigma 0.01): the state limit held at mean + 3 sigma (the "
+                       "dynamics are linear, so CADET's sigma_x(t) = 0.01 t is exact and the design keeps "
+                       "x_mean + 0.03 t <= 1/9), the final conditions on the mean, confirmed by 2000 Monte Carlo "
+                       "flights of the open-loop control (99.95% kept against Phi(3) = 99.865%). Cost of "
+                       "robustness: 0.6859 in control effort (4.6859 against the twin's 4.0000, 17%).",
+        "optimum": None, "tolerance": None, "params": BRYSON_DENHAM_ROBUST},
+    "betts-shuttle-heat-limit-ocp": {
+        "description": "Betts' shuttle maximum crossrange with the heating rate at most 70 BTU/ft^2/s (Betts, "
+                       "Practical Methods for Optimal Control, 2nd ed., sec. 6.3), written as ocp expressions as "
+                       "betts-shuttle-ocp is, the aerodynamic errors s1, s2 of paper 001 declared at zero. Betts: "
+                       "30.6255 deg, tf 2198.67 s; this preset on 100 intervals (the limit held between the nodes "
+                       "too): 30.62088 deg, tf 2198.09 s (the reentry kind's node-enforced 30.62788 deg "
+                       "overshoots 70 between nodes). Deterministic twin of betts-shuttle-robust-ocp. Tolerance "
+                       "0.01 deg.",
+        "optimum": 30.6255, "tolerance": 0.01, "params": SHUTTLE_HEAT_LIMITED},
+    "betts-shuttle-robust-ocp": {
+        "description": "Paper 001 (reentry trajectory robust optimization with CADET, 2020) posed as an ocp: the "
+                       "robust_reentry kind's robust-max-crossrange. betts-shuttle-heat-limit-ocp with CD = CD_N "
+                       "(1 + s1), CL = CL_N (1 + s2), s1 ~ N(0.01, 0.01^2), s2 ~ N(-0.01, 0.01^2); the mean - 3 "
+                       "sigma of the final latitude maximized and the heating limit held at mean + 3 sigma (CADET "
+                       "through the expressions), confirmed by 10,000 Monte Carlo flights of the open-loop controls. "
+                       "The first design (k = 3) gives mean - 3 sigma = 28.2220 deg (the robust_reentry kind's first "
+                       "design: 28.2340 deg, 0.012 deg apart: it holds the robust limit at every RK4 step, this one at "
+                       "the nodes with tighten rounds between them; its terminal sigma limits are inactive and not "
+                       "posed here); it keeps the limit in 99.42% of the flights, below Phi(3) = 99.865%, so the "
+                       "limit's k is raised to 3.576 and the re-solved design (tf 2220.44 s) gives 28.1331 deg, kept "
+                       "by 99.95% (the kind: k 3.495, 28.1578 deg, tf 2222.97 s; its Monte Carlo, 10,000 draws too, "
+                       "kept 99.54% at k = 3). Monte Carlo mean / sigma of the final latitude 28.810 / 0.258 deg "
+                       "against CADET's first-order 28.865 / 0.244 deg. Cost of robustness: 2.488 deg of mean - 3 "
+                       "sigma latitude (28.1331 against the twin's 30.6209 deg; the Monte Carlo's mean latitude is "
+                       "1.81 deg below the twin's).",
+        "optimum": None, "tolerance": None, "params": SHUTTLE_HEAT_LIMITED_ROBUST},
 }

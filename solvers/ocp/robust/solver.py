@@ -2,7 +2,7 @@
 prediction and the Monte Carlo's verdict.
 
 :func:`solve_robust` solves the deterministic twin (:func:`solvers.ocp.solver.solve`: the same problem with
-every constant at its mean; its answer warm-starts the robust NLP and prices robustness), then the robust
+every constant at its declared value, which is its mean unless the uncertainty gives one; its answer warm-starts the robust NLP and prices robustness), then the robust
 NLP (:class:`solvers.ocp.robust.nlp.RobustNLP`), and checks the design's mean trajectory exactly as a
 deterministic answer is checked (:func:`solvers.ocp.check.check_phase`: the DOP853 re-flight, the limits
 between the nodes).  CADET's prediction is evaluated at the nodes and between them (``DENSE`` RK4 steps per
@@ -14,7 +14,7 @@ result's ``robust`` block (``shared/specs/ocp.md``, "Robust design") and decides
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from types import SimpleNamespace
 
 import numpy as np
@@ -59,8 +59,18 @@ class Built:
 
     def __init__(self, problem, rob):
         self.R = RobustNLP(problem, rob)
-        self.check_nlp = TrajectoryNLP(problem, build=False)
-        self.check_placed = Placed(problem, self.check_nlp, None)
+        self.mean_problem = at_mean(problem)
+        self.check_nlp = TrajectoryNLP(self.mean_problem, build=False)
+        self.check_placed = Placed(self.mean_problem, self.check_nlp, None)
+
+
+def at_mean(problem):
+    """``problem`` with every uncertain constant at its mean, the constants the design's mean flies (they
+    differ from the declared ones, which the twin flies, where the uncertainty gives a ``mean``: paper 001's
+    biased aerodynamic errors)."""
+    means = {p.name: p.mean for p in problem.robust.parameters}
+    c = tuple((n, means.get(n, v)) for n, v in problem.constants)
+    return replace(problem, constants=c).on_phases([replace(ph.problem, constants=c) for ph in problem.phases])
 
 
 def solve_robust(problem, *, params: dict, initial_guess: dict | None = None,
@@ -159,8 +169,9 @@ def _hold_between_nodes(R: RobustNLP, placed: dict, res, design: Design, predict
 
 def _mean_solution(problem, built: Built, design: Design, res) -> OcpSolution:
     """The design's mean as an ``ocp`` answer: every phase checked and reported as a deterministic one (no
-    costates: the deterministic optimality conditions do not apply to a robust design)."""
-    nlp, placed = built.check_nlp, built.check_placed
+    costates: the deterministic optimality conditions do not apply to a robust design), re-flown with the
+    uncertain constants at their means."""
+    problem, nlp, placed = built.mean_problem, built.check_nlp, built.check_placed
     checks = []
     for b, num, P, d in zip(nlp.blocks, placed.nums, built.R.phases, design.phases):
         nx = P.rf.base.nx
