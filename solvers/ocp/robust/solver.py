@@ -2,9 +2,10 @@
 prediction and the Monte Carlo's verdict.
 
 :func:`solve_robust` solves the deterministic twin (:func:`solvers.ocp.solver.solve`: the same problem with
-every constant at its declared value, which is its mean unless the uncertainty gives one; its answer warm-starts the robust NLP and prices robustness), then the robust
-NLP (:class:`solvers.ocp.robust.nlp.RobustNLP`), and checks the design's mean trajectory exactly as a
-deterministic answer is checked (:func:`solvers.ocp.check.check_phase`: the DOP853 re-flight, the limits
+every constant at its declared value, which is its mean unless the uncertainty gives one; its answer
+warm-starts the robust NLP and prices robustness), then the robust NLP
+(:class:`solvers.ocp.robust.nlp.RobustNLP`), and checks the design's mean trajectory exactly as a
+deterministic answer is checked (:func:`solvers.ocp.check.check_phase`: the DOP853 re-flight at the means, the limits
 between the nodes).  CADET's prediction is evaluated at the nodes and between them (``DENSE`` RK4 steps per
 interval of the augmented system): the objective's mean and sigma and, per named constraint, the worst
 ``mu +- k sigma`` against its bounds.  :func:`confirm` folds a Monte Carlo summary of the design
