@@ -10,8 +10,8 @@ Run as ``python -m worker.watch PID``.  It reads one JSON line per command on it
 
 End of input (its pool process exited) ends it.  While a job runs it reads PID's resident memory from
 ``/proc/PID/statm`` at an interval that shrinks as the job nears its cap (:func:`next_sample_s`); past the
-cap, or past ``deadline + grace_s``, it first ends PID with SIGKILL (the growth stops there), then calls
-``handler(error, context)``, which stores the failure, and exits.  It imports nothing of the service
+cap, or past ``deadline + grace_s``, it first stops PID with SIGSTOP (the growth stops there), calls
+``handler(error, context)``, which stores the failure, then ends PID with SIGKILL and exits.  It imports nothing of the service
 until then, so it holds a few MB.
 """
 from __future__ import annotations
@@ -22,6 +22,7 @@ import os
 import select
 import signal
 import sys
+import threading
 import time
 
 MB = 1024 * 1024
@@ -34,6 +35,8 @@ GROWTH_BYTES_PER_S = 4e9
 # a sample that comes late (a busy CPU wakes the watcher up to a few ms late).
 SLACK = 0.025
 MIN_SAMPLE_S = 0.001
+# the longest a breaching job stays stopped while its failure is stored (see Watch.breach)
+KILL_AFTER_S = 10.0
 MAX_SAMPLE_S = 0.05
 
 
@@ -87,14 +90,23 @@ class Watch:
 
     def breach(self, error: dict) -> None:
         assert self.job is not None
-        os.kill(self.pid, signal.SIGKILL)  # first: the job may be inside native code, still allocating
+        # Stopped first (the job may be inside native code, still allocating: SIGSTOP halts it at once), killed
+        # only once the failure is stored: a process killed first has its message redelivered by the pool, and
+        # a loaded machine's redelivery claimed a second attempt before this process had stored the first.
+        os.kill(self.pid, signal.SIGSTOP)
+        # a stopped process may hold a database lock (a progress write in flight) that the store below waits on:
+        # past KILL_AFTER_S it is killed anyway, which ends its transaction
+        threading.Timer(KILL_AFTER_S, os.kill, (self.pid, signal.SIGKILL)).start()
         print(f"trajlab watcher: job {self.job['context'].get('job_id', '?')}: {error['message']}; its worker "
-              f"process {self.pid} was ended (SIGKILL) and the pool starts a fresh one", file=sys.stderr, flush=True)
+              f"process {self.pid} is ended (SIGKILL) once the failure is stored and the pool starts a fresh one",
+              file=sys.stderr, flush=True)
         try:
             call_handler(self.job["handler"], error, self.job["context"])
         except Exception as exc:  # the reaper takes the job over
             print(f"trajlab watcher: the {error['code']} failure was not stored ({type(exc).__name__}: {exc}); "
                   "the reaper takes the job over", file=sys.stderr, flush=True)
+        finally:
+            os.kill(self.pid, signal.SIGKILL)
         os._exit(0)
 
     def command(self, line: bytes) -> None:
