@@ -65,6 +65,11 @@ def test_every_plot_renders_and_the_report_holds_them(solved, name):
         trajectories = [p["trajectory"] for p in outcome.result.get("phases") or [outcome.result]]
         quantities = {n for tr in trajectories for n in tr if n != "t"}
         expected = {f"t-{n}" for n in quantities} | {f"{x}-{y}" for x, y in params["plots"]}
+        if params.get("robust"):   # a robust design: its Monte Carlo's envelopes and histograms (issue 37 item 4)
+            named = set(params["robust"]["constraints"])
+            expected |= {f"mc-state-{s['name']}" for s in params["states"]} | {"mc-objective"}
+            expected |= {f"mc-constraint-{c['name']}" for c in params.get("path") or [] if c["name"] in named}
+            expected |= {f"mc-boundary-{c['name']}" for c in params.get("boundary") or [] if c["name"] in named}
     else:
         expected = {"reentry": {"altitude_speed", "ground_track", "controls", "heating"},
                     "midcourse": {"pareto_front", "correction_times"},
@@ -92,9 +97,20 @@ def test_csv_tables_round_trip_the_json_numbers(solved, name):
         return
     tables = tables_for(kind, outcome.result)
     assert tables
-    for cols in tables.values():
+    for table, cols in tables.items():
         rows = list(csv.reader(io.StringIO(to_csv(cols))))
         assert rows[0] == list(cols)
+        if table.startswith("robust_"):   # a robust design's Monte Carlo: its own columns, numbers round-trip
+            robust = outcome.result["robust"]
+            n = {"robust_envelope": len(robust["monte_carlo"]["envelope"]["t"]),
+                 "robust_samples": robust["samples"], "robust_rounds": len(robust["rounds"])}[table]
+            assert len(rows) == 1 + n
+            for i, row in enumerate(rows[1:]):
+                for h, text in zip(rows[0], row):
+                    want = cols[h][i]
+                    assert text == str(want) if isinstance(want, bool) else \
+                        _num(text) == pytest.approx(want, rel=1e-12, abs=0.0), (table, h, i)
+            continue
         if kind == "ocp" and outcome.result.get("phases"):  # several phases stacked, a phase column first
             names = {n for p in outcome.result["phases"] for n in p["trajectory"]}
             assert rows[0][:2] == ["phase", "t"] and set(rows[0][1:]) <= names, rows[0]

@@ -23,6 +23,7 @@ from app.kinds.ocp.params import OcpParams
 from app.kinds.ocp.plots import plots as ocp_plots
 from app.kinds.ocp.result import OcpResult
 from app.kinds.ocp.robust.plots import robust_plots
+from app.kinds.ocp.robust.trade import ROBUST_TABLES, robust_key_numbers
 from app.kinds.ocp.search import run_search, solve_one
 from app.kinds.ocp.trade import swept_label, trade_outputs
 from app.kinds.ocp.warm_start import WARM_START_FIELD, load_warm_start, misfit
@@ -82,7 +83,8 @@ def _limits_held(verification) -> bool | None:
 def key_numbers(result: dict) -> dict:
     """Objective (in the user's sense), final time, each state's final value and each optimized parameter
     (``final.h``, ``parameters.k``), iterations, and what the dense re-flight found: whether every limit
-    held and whether the re-flown states agree with the solution."""
+    held and whether the re-flown states agree with the solution; a robust design's numbers by source
+    (``mc.``, ``cadet.``, ``deterministic.``: app.kinds.ocp.robust.trade)."""
     out = {"objective": result["objective"]["value"], "sense": result["objective"]["sense"],
            "tf": result["tf"], **{f"final.{k}": v for k, v in (result.get("final") or {}).items()},
            **{f"parameters.{k}": v for k, v in (result.get("parameters") or {}).items()},
@@ -93,7 +95,7 @@ def key_numbers(result: dict) -> dict:
     agrees = (result.get("verification") or {}).get("agrees")
     if isinstance(agrees, bool):
         out["verification_agrees"] = agrees
-    return out
+    return {**out, **robust_key_numbers(result)}
 
 
 # One work unit is about one RK4 step of one reentry shooting interval (app.service.quota: the Betts
@@ -162,7 +164,7 @@ SPEC = KindSpec(
     swept_label=swept_label,
     warm_start_misfit=misfit,
     memory=MEMORY,
-    tables={"trajectory": trajectory_table, "verification": columns_at("verification.trajectory")},
+    tables={"trajectory": trajectory_table, "verification": columns_at("verification.trajectory"), **ROBUST_TABLES},
     warm_start_field=WARM_START_FIELD,
     compare=compare_series,
     json_editor=True,   # a problem written as data: "New job" edits it as JSON, not as a form of fields

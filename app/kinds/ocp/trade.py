@@ -4,6 +4,7 @@ and a swept parameter named as the problem names it ("final value of h [m]" for 
 from __future__ import annotations
 
 from app.kinds.ocp.headlines import objective_words
+from app.kinds.ocp.robust.trade import robust_trade_outputs
 from app.kinds.trade import TradeOutput
 
 # A swept field of a declaration, in words; the unit is the declared variable's.
@@ -19,7 +20,9 @@ def trade_outputs(result: dict, params: dict | None) -> list[TradeOutput]:
     the study drops the ones that are the same at every point (a fixed final value)."""
     words, unit = objective_words(params)
     units = result.get("units") or {}
-    out = [TradeOutput("objective", f"objective ({words})", unit)]
+    # a robust design: the Monte Carlo's and CADET's objective side by side (the NLP's objective is CADET's)
+    out = robust_trade_outputs(result, words=words, unit=unit) if result.get("robust") else \
+        [TradeOutput("objective", f"objective ({words})", unit)]
     if words.split(" ", 1)[-1] not in ("tf", "t_f"):
         out.append(TradeOutput("tf", "final time", "s"))
     out += [TradeOutput(f"final.{name}", f"final {name}", units.get(name) or "") for name in result.get("final") or {}]
@@ -37,6 +40,7 @@ def _element(group: list, part: str) -> dict | None:
 
 def swept_label(params: dict, path: str) -> tuple[str, str]:
     """``states.1.final`` -> ("final value of h", "m"); ``time.final`` -> ("final time", "s");
+    ``robust.k`` -> ("k (sigmas of margin)", ""); ``uncertainty.parameters.CdA.sigma`` -> ("sigma of CdA", "");
     ``phases.coast.time.final_upper`` -> ("coast: upper bound of tf", "s"); ``constants.g`` -> ("g", "");
     anything else: the path, no unit."""
     parts = path.split(".")
@@ -50,6 +54,13 @@ def swept_label(params: dict, path: str) -> tuple[str, str]:
         return prefix + TIME_WORDS[parts[1]], "s"
     if len(parts) == 2 and parts[0] == "constants":
         return prefix + parts[1], ""
+    if parts in (["robust", "k"], ["robust", "monte_carlo", "sigma_factor"]):
+        return ("k (sigmas of margin)" if parts[1] == "k" else "Monte Carlo sigmas over the design's"), ""
+    if len(parts) == 4 and parts[:2] == ["uncertainty", "parameters"] and parts[3] in ("sigma", "lower", "upper"):
+        return f"{parts[3]} of {parts[2]}", ""
+    if len(parts) == 4 and parts[:2] == ["uncertainty", "initial"] and parts[3] == "sigma":
+        item = _element(params.get("states") or [], parts[2])
+        return f"initial sigma of {parts[2]}", (item or {}).get("unit") or ""
     if len(parts) == 3 and parts[0] in ("states", "controls", "parameters") and parts[2] in FIELD_WORDS:
         item = _element(scope.get(parts[0]) or [], parts[1])
         if item is not None:
