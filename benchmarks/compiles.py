@@ -3,7 +3,8 @@ data directory, so an empty JIT cache, its two worker pools), once with ``TRAJLA
 baseline of time to the answers) and once with the default ``background`` (the compile policy of
 solvers/transcription/jit.py).
 
-Run: ``python -m benchmarks.compiles`` (``--modes background`` for one; ``--quick``: the robust tutorial with
+Run: ``python -m benchmarks.compiles`` (``--modes background`` for one; ``--abba``: each mode twice, off,
+background, background, off, against a drifting load; ``--quick``: the robust tutorial with
 2000 Monte Carlo samples, as its page suggests for a faster check).
 
 The jobs are the tutorials' commands in page order, one at a time as a reader runs them (each waits for its
@@ -218,23 +219,33 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--modes", default="off,background")
     ap.add_argument("--quick", action="store_true", help="the robust tutorial with 2000 Monte Carlo samples")
+    ap.add_argument("--abba", action="store_true",
+                    help="each mode twice, in the order off, background, background, off: on a machine whose "
+                         "load drifts, each mode's mean then sees the same drift")
     ap.add_argument("--timeout", type=float, default=900, help="seconds per job")
     ap.add_argument("--compile-wait", type=float, default=300,
                     help="seconds to let compiles that outlive the tutorials finish before the service stops")
     args = ap.parse_args()
-    out = {"quick": args.quick}
-    for mode in args.modes.split(","):
-        out[mode] = run_mode(mode, quick=args.quick, timeout=args.timeout, compile_wait=args.compile_wait)
+    modes = args.modes.split(",")
+    runs: dict[str, list[dict]] = {m: [] for m in modes}
+    for mode in modes + (modes[::-1] if args.abba else []):
+        runs[mode].append(run_mode(mode, quick=args.quick, timeout=args.timeout, compile_wait=args.compile_wait))
     print(f"\n{'mode':<12}{'answers s':>10}{'compiles':>10}{'at once':>9}{'compile CPU s':>15}{'cores':>7}"
           f"{'libraries':>10}{'structures':>11}")
-    for mode in args.modes.split(","):
-        f = out[mode]
-        print(f"{mode:<12}{f['answers_s']:>10.1f}{f['compiles']:>10}{f['most_at_once']:>9}{f['cpu_s']:>15.1f}"
-              f"{f['compile_cores']:>7.3f}{f['libraries']:>10}{f['structures_seen']:>11}")
-    if "off" in out and "background" in out:
-        print("\njob                     off s  background s   ratio")
-        for a, b in zip(out["off"]["jobs"], out["background"]["jobs"]):
-            print(f"{a['job']:<20}{a['seconds']:>9.1f}{b['seconds']:>14.1f}{b['seconds'] / a['seconds']:>8.2f}")
+    for mode in modes:
+        for f in runs[mode]:
+            print(f"{mode:<12}{f['answers_s']:>10.1f}{f['compiles']:>10}{f['most_at_once']:>9}{f['cpu_s']:>15.1f}"
+                  f"{f['compile_cores']:>7.3f}{f['libraries']:>10}{f['structures_seen']:>11}")
+    out: dict = {"quick": args.quick, "abba": args.abba,
+                 **{m: {"answers_s": round(sum(f["answers_s"] for f in r) / len(r), 1), "runs": r}
+                    for m, r in runs.items()}}
+    if "off" in runs and "background" in runs:
+        print("\njob (mean of runs)       off s  background s   ratio")
+        n_off, n_bg = len(runs["off"]), len(runs["background"])
+        for i, row in enumerate(runs["off"][0]["jobs"]):
+            a = sum(r["jobs"][i]["seconds"] for r in runs["off"]) / n_off
+            b = sum(r["jobs"][i]["seconds"] for r in runs["background"]) / n_bg
+            print(f"{row['job']:<20}{a:>9.1f}{b:>14.1f}{b / a:>8.2f}")
         out["answers_ratio"] = round(out["background"]["answers_s"] / out["off"]["answers_s"], 3)
         print(f"\nall answers: background / off = {out['answers_ratio']:.3f}")
     write_results("compiles", out)
