@@ -153,6 +153,20 @@ def compile_figures(log: Path) -> dict:
             "wall_s": round(sum(b - a for a, b, _, _ in spans), 1), "most_at_once": most}
 
 
+def _compilers_in(directory: Path) -> list[int]:
+    """Processes whose command line names ``directory`` (this run's compilers: cc, cc1, as, ld)."""
+    out = []
+    for entry in os.scandir("/proc"):
+        if entry.name.isdigit():
+            try:
+                with open(f"/proc/{entry.name}/cmdline", "rb") as f:
+                    if str(directory).encode() in f.read():
+                        out.append(int(entry.name))
+            except OSError:
+                pass
+    return [pid for pid in out if pid != os.getpid()]
+
+
 def _compiling(records: Path) -> bool:
     """A compile started and not ended (others may wait for the lock behind it: they start when it ends)."""
     events = [line.split()[2] for line in records.read_text().splitlines()]
@@ -205,6 +219,13 @@ def run_mode(mode: str, *, quick: bool, timeout: float, compile_wait: float) -> 
             serve.wait(timeout=60)
         except subprocess.TimeoutExpired:
             os.killpg(serve.pid, signal.SIGKILL)
+    # compilers run in sessions of their own (solvers.transcription.jit._low_priority): a compile still going
+    # when the service stopped is ended here, before its directory is removed
+    for pid in _compilers_in(tmp):
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
     figures = compile_figures(log)
     figures.update({"answers_s": round(answers_s, 1), "until_compiles_done_s": round(total_s, 1),
                     "compile_cores": round(figures["cpu_s"] / total_s, 3), "jobs": rows,

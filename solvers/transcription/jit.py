@@ -240,9 +240,10 @@ def _low_priority() -> None:
     (``/proc/sys/kernel/sched_autogroup_enabled``, on by default) nice weighs only against processes of the
     same session, and the two pools are two sessions, so a compile started by an idle pool had its session's
     whole share against the other pool's solve.  Hence the compiler gets a session of its own
-    (``start_new_session``) whose autogroup is at nice 19 too.  And it dies with the thread that waits for it
-    (``PR_SET_PDEATHSIG``): a pool killed mid-compile releases the lock, and an orphaned compiler would
-    then run beside the next one."""
+    (``start_new_session``) whose autogroup is at nice 19 too.  And the compiler driver dies with the thread
+    that waits for it (``PR_SET_PDEATHSIG``): a pool killed mid-compile releases the lock, and an orphaned
+    driver would go on to assemble and link beside the next compile.  A ``cc1`` the driver had started is not
+    covered (the signal is not inherited): it finishes its translation unit alone, at nice 19, and exits."""
     os.nice(19)
     try:
         fd = os.open("/proc/self/autogroup", os.O_WRONLY)
