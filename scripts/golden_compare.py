@@ -64,7 +64,11 @@ def _run_case(spec, params: dict, overrides: dict | None, ctx) -> dict:
         out = spec.run(spec.params_model.model_validate(resolved), ctx)
     except JobFailure as exc:
         return {"status": "failed", "result": None, "error": {"code": exc.code, "message": exc.message}}
-    # The stored JSON, as the service would store it.
+    return record_of(out)
+
+
+def record_of(out) -> dict:
+    """The record of a run's outcome: the stored JSON, as the service would store it."""
     return json.loads(json.dumps({"status": out.status, "result": out.result, "error": out.error},
                                  default=float))
 

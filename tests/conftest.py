@@ -53,7 +53,8 @@ SHARED_GROUPS = {
     "tests/integration/test_guide_browser.py": "guide",
     **{f"tests/{path}.py": "presets" for path in (
         "unit/test_result_files", "unit/test_result_models", "unit/test_headlines", "unit/test_robust_objective",
-        "unit/test_intercept_thrust", "integration/test_generated_client")},
+        "unit/test_intercept_thrust", "integration/test_generated_client", "unit/test_ocp_catalogue",
+        "unit/test_ocp_golden", "unit/test_progress_stages", "unit/test_ocp_robust_presets")},
 }
 
 

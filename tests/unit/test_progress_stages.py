@@ -12,6 +12,7 @@ import pytest
 from app.kinds import KINDS, PRESETS
 from app.service.params import resolve_params
 from solvers.progress import CAP, Progress, ProgressMessage, Stage
+from tests.preset_results import preset_progress, solve_preset
 from tests.support import RecordingContext
 
 PLAN = (Stage("build", 1.0), Stage("solve", 5.0), Stage("refinement", 3.0, rounds=True), Stage("answer", 1.0))
@@ -147,8 +148,10 @@ def test_the_worker_stores_the_stage_and_the_job_document_shows_it(sqlite_db):
 @pytest.mark.slow
 def test_a_robust_ocp_job_declares_its_stages():
     # rocket-ascent-q-limit-robust: the twin, the robust NLP, a limit round, the Monte Carlo (2000 samples)
-    # and, as measured, one confirmation round (the constraints' k raised)
-    out, messages = _run("rocket-ascent-q-limit-robust", {})
+    # and, as measured, one confirmation round (the constraints' k raised).  The preset's own run, as _run
+    # makes it (no overrides), shared with the plots and robust-preset tests (tests/preset_results.py)
+    _, _, out = solve_preset("rocket-ascent-q-limit-robust", {})
+    messages = preset_progress("rocket-ascent-q-limit-robust", {})
     assert out.status == "succeeded" and out.result["robust"]["confirmed"]
     names = _check_honest(messages)
     assert not [m for _, m in messages if not isinstance(m, ProgressMessage)]   # every message names its stage
