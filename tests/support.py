@@ -1,6 +1,8 @@
 """Test doubles of the service side (never of a solver): a job context without a worker."""
 from __future__ import annotations
 
+import time
+
 from app.kinds.base import InProcessContext
 
 
@@ -41,3 +43,16 @@ def wait_serving(url: str, *, proc, what: str, log=None, status: int | None = No
             pass
         assert time.monotonic() < deadline, f"{what} did not answer {url} within {timeout:.0f} s\n{tail()}"
         time.sleep(0.3)
+
+
+# A bound on a wait for a state in a test of our own threads: it only ends a test that would otherwise hang.
+UNTIL_BOUND_S = 30.0
+
+
+def until(predicate, what: str, bound_s: float = UNTIL_BOUND_S):
+    """Poll ``predicate`` every 20 ms until it is truthy (its value is returned); past ``bound_s``, fail naming ``what``."""
+    deadline = time.monotonic() + bound_s
+    while not (value := predicate()):
+        assert time.monotonic() < deadline, what
+        time.sleep(0.02)
+    return value

@@ -17,17 +17,11 @@ from app.service import breaker, jobs, metrics, metrics_buffer
 from app.service.broker import QUEUE_JOBS, create_publisher, redis_client
 from app.service.publisher import Publisher
 from tests.silent_link import SilentLink
+from tests.support import until
 
 pytestmark = pytest.mark.integration
 BOUND_S = 30  # every wait below is for a state; this only ends a test that would otherwise hang
 
-
-def _until(predicate, what: str):
-    deadline = time.monotonic() + BOUND_S
-    while not (value := predicate()):
-        assert time.monotonic() < deadline, what
-        time.sleep(0.02)
-    return value
 
 
 @pytest.fixture
@@ -66,18 +60,18 @@ def test_the_publisher_keeps_jobs_through_a_silent_cut_and_publishes_them_after(
 
     first = new_job()
     publisher.send([first])
-    _until(lambda: _queued_ids(direct) == [first.id], "the first job published")
+    until(lambda: _queued_ids(direct) == [first.id], "the first job published")
     relay.cut()
     kept = [new_job(), new_job()]
     publisher.send(kept[:1])
-    _until(lambda: publisher.breaker.open, "the breaker opened")
+    until(lambda: publisher.breaker.open, "the breaker opened")
     publisher.send(kept[1:])
-    _until(lambda: all(jobs.get_job(sqlite_db, j.id).published_at is None for j in kept), "kept jobs marked")
+    until(lambda: all(jobs.get_job(sqlite_db, j.id).published_at is None for j in kept), "kept jobs marked")
     assert publisher.pending() == 2
     touched: list[int] = []
     assert publisher.breaker.call(lambda: touched.append(1), "skipped") == "skipped" and not touched
     relay.restore()
-    _until(lambda: publisher.pending() == 0, "kept jobs published after the return")
+    until(lambda: publisher.pending() == 0, "kept jobs published after the return")
     assert all(jobs.get_job(sqlite_db, j.id).published_at is not None for j in kept)
     # a publish that timed out during the cut may have reached Redis late as well: never a job missing
     assert set(_queued_ids(direct)) == {first.id, *(j.id for j in kept)}
@@ -115,7 +109,7 @@ def test_the_failed_key_limit_counts_in_the_process_while_the_breaker_is_open(li
     limiter.failed("10.0.0.1")  # does not ask Redis: the breaker is open
     assert limiter.retry_after_s("10.0.0.1") is not None
     relay.restore()
-    _until(lambda: not b.open, "the breaker closed after the return")
+    until(lambda: not b.open, "the breaker closed after the return")
 
 
 def test_the_metrics_script_applies_metric_writes_only(redis_url):

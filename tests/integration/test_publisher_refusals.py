@@ -20,9 +20,9 @@ from app.service import publisher as publisher_module
 from app.service.broker import QUEUE_JOBS, create_publisher
 from app.service.publisher import Publisher
 from tests.faults.servers import RedisServer
+from tests.support import until
 
 pytestmark = pytest.mark.integration
-BOUND_S = 30  # every wait below is for a state; this only ends a test that would otherwise hang
 WINDOW_S = 2.0  # refusals watched this long
 INTERVAL_S = 0.1  # TRAJLAB_BROKER_PROBE_INTERVAL_S here: the first retry's delay
 # A spinning thread burns up to the window's whole second per second (0.63 s of 2.0 s measured before the
@@ -30,13 +30,6 @@ INTERVAL_S = 0.1  # TRAJLAB_BROKER_PROBE_INTERVAL_S here: the first retry's dela
 # the breaker's PINGs as much (about 20 ms in the window).  A tenth of the window lies between the two.
 SPIN_CPU_SHARE = 0.1
 
-
-def _until(predicate, what: str):
-    deadline = time.monotonic() + BOUND_S
-    while not (value := predicate()):
-        assert time.monotonic() < deadline, what
-        time.sleep(0.02)
-    return value
 
 
 @pytest.fixture
@@ -70,7 +63,7 @@ def _setup(sqlite_db, server: RedisServer):
     publisher = Publisher(sqlite_db, create_publisher(settings), settings)
     job = jobs.create_job(sqlite_db, kind="intercept", params={}, label=None, preset=None)[0]
     publisher.send([job])
-    _until(lambda: _lpush_attempts(r) >= 1 and jobs.get_job(sqlite_db, job.id).published_at is None,
+    until(lambda: _lpush_attempts(r) >= 1 and jobs.get_job(sqlite_db, job.id).published_at is None,
            "the refused job marked unpublished")
     assert r.llen(QUEUE_JOBS) == 0
     return r, publisher, job
@@ -88,7 +81,7 @@ def test_refused_writes_are_retried_with_a_bounded_backoff_not_a_spin(sqlite_db,
     assert cpu < SPIN_CPU_SHARE * window, cpu
     assert not publisher.breaker.open  # Redis answered throughout: only the backoff spaced the attempts
     r.config_set("maxmemory", "0")  # the limit raised: sent within the longest delay
-    _until(lambda: publisher.pending() == 0, "the kept job published after the limit was raised")
+    until(lambda: publisher.pending() == 0, "the kept job published after the limit was raised")
     assert jobs.get_job(sqlite_db, job.id).published_at is not None
     assert r.llen(QUEUE_JOBS) == 1
 
@@ -99,7 +92,7 @@ def test_a_job_sent_but_not_marked_published_is_not_sent_again(sqlite_db, own_re
         s.execute(text("CREATE TRIGGER refuse_published BEFORE UPDATE OF published_at ON jobs "
                        "WHEN NEW.published_at IS NOT NULL BEGIN SELECT RAISE(ABORT, 'refused by the test'); END"))
     r.config_set("maxmemory", "0")
-    _until(lambda: r.llen(QUEUE_JOBS) >= 1, "the job sent once the limit was raised")
+    until(lambda: r.llen(QUEUE_JOBS) >= 1, "the job sent once the limit was raised")
     r.config_resetstat()
     cpu, start = time.process_time(), time.monotonic()
     time.sleep(WINDOW_S)
@@ -110,6 +103,6 @@ def test_a_job_sent_but_not_marked_published_is_not_sent_again(sqlite_db, own_re
     assert publisher.pending() == 1 and jobs.get_job(sqlite_db, job.id).published_at is None
     with sqlite_db.write() as s:
         s.execute(text("DROP TRIGGER refuse_published"))
-    _until(lambda: publisher.pending() == 0, "the mark written once the database takes it")
+    until(lambda: publisher.pending() == 0, "the mark written once the database takes it")
     assert jobs.get_job(sqlite_db, job.id).published_at is not None
     assert r.llen(QUEUE_JOBS) == 1
