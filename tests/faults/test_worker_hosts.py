@@ -166,7 +166,11 @@ def test_a_worker_host_cut_off_longer_than_the_stale_limit_during_a_burst(hosts_
     # stale_after_s of store retries, each call bounded (CALL_BOUND_S).
     slot_bound_s = long_s + HEARTBEAT_JOIN_S + stale_s + CALL_BOUND_S + LOAD_MARGIN_S
     assert slot_free_s is not None and slot_free_s < slot_bound_s, (slot_free_s, slot_bound_s)
-    assert all(jobs[j]["attempts"] == 1 for j in accepted if j not in on_a)
+    # a job host a took as the link died (claimed after the look above, or its claim's commit in flight when the
+    # link went) is host a's too: the reaper re-runs it once (a loaded run: two short jobs claimed at the cut)
+    took_a = set(re.findall(r"job ([0-9a-f]{32})", (stack.tmp / "worker-a.log").read_text(errors="replace")))
+    assert all(jobs[j]["attempts"] == 1 for j in accepted if j not in on_a and j not in took_a)
+    assert all(jobs[j]["attempts"] <= 2 for j in accepted if j in took_a)
 
 
 def test_the_api_cut_from_its_database_answers_503_with_retry_after(hosts_stack):
