@@ -31,7 +31,8 @@ SLOW = {"kind": "intercept", "preset": "long-range-intercept",  # about a tenth 
 # Seconds on any machine (Betts' shuttle on 200 intervals, its first CasADi build in this worker included): still
 # running when the database stops.  The impulsive intercept once used here ran 0.4 s on a warm worker and had
 # finished, stored, before the outage began, which voided the scenario.
-LONG = {"kind": "reentry", "preset": "betts-max-crossrange", "params": {"grid": {"intervals": 200}}}
+# seconds on a quiet machine (200 intervals took 0.6 s warm and ended before the outage began)
+LONG = {"kind": "reentry", "preset": "betts-max-crossrange", "params": {"grid": {"intervals": 800}}}
 
 
 @pytest.fixture(scope="module")
