@@ -51,7 +51,13 @@ def test_the_catalogue_is_in_the_preset_list_and_every_entry_says_why():
     assert len(PRESETS) >= 20
 
 
-@pytest.mark.parametrize("name", list(CATALOGUE))
+# The catalogue's longest solves (4-16 s each here) run in `make test` only: `make check` keeps its two
+# minutes with the rest of the catalogue, which exercises the same code paths.
+LONG_SOLVES = {"free-flying-robot", "rayleigh-mixed-constraint", "tumor-antiangiogenesis"}
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n in LONG_SOLVES else n
+                                  for n in CATALOGUE])
 def test_preset_reaches_its_published_optimum(name):
     # The preset's job run in this process (the kind's ``run``: solvers.ocp.solve of the preset's problem with
     # the job's progress and stop callbacks, its answer as stored), shared with the plots and golden tests

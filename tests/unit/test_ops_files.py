@@ -9,6 +9,7 @@ import shutil
 import subprocess
 from pathlib import Path
 
+import pytest
 import yaml
 
 DEPLOY = Path(__file__).resolve().parents[2] / "deploy"
@@ -28,6 +29,7 @@ def metric_names_in_ops_files() -> set[str]:
     return {name for expr in _expressions() for name in _METRIC.findall(expr) if name != "up"}
 
 
+@pytest.mark.integration  # a real part (Debian's promtool, installed by make test's prerequisites)
 def test_alert_rules_load_in_promtool():
     promtool = shutil.which("promtool")
     assert promtool, "promtool is missing: scripts/test-prerequisites.sh installs Debian's prometheus"
@@ -47,6 +49,7 @@ def test_rules_cover_the_issue_and_dashboard_queries_every_panel():
             "trajlab_http_request_duration_seconds_bucket", "trajlab_build_info"} <= metric_names_in_ops_files()
 
 
+@pytest.mark.integration  # a real part (Debian's promtool, installed by make test's prerequisites)
 def test_scrape_config_loads_in_promtool(tmp_path):
     # the compose paths (/etc/prometheus/...) pointed at deploy/'s rules and a stand-in key file
     key = tmp_path / "key"

@@ -58,7 +58,14 @@ def check_result(kind: str, result: dict) -> None:
         assert json.loads(result_json(kind, body)) == json.loads(json.dumps(body))
 
 
-@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if p.kind == "robust_reentry" else n
+# Presets whose solve takes seconds run in `make test` only (`slow`); `make check` still validates every
+# kind's model on its quick presets (bryson-denham-robust for a robust ocp, betts-max-crossrange for a reentry).
+LONG_SOLVES = {"betts-shuttle-robust-ocp", "betts-shuttle-heat-limit-ocp", "betts-shuttle-ocp",
+               "rocket-ascent-q-limit-robust", "rocket-ascent-q-limit", "shuttle-min-heat-load"}
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow)
+                                  if p.kind == "robust_reentry" or n in LONG_SOLVES else n
                                   for n, p in PRESETS.items()])
 def test_every_presets_result_validates_with_undeclared_fields_forbidden(name):
     kind, _, outcome = solve_preset(name)
