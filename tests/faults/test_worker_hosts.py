@@ -42,8 +42,13 @@ HEARTBEAT_JOIN_S = 10  # worker.context: a job's end waits this long at most for
 LOAD_MARGIN_S = 10  # what a loaded machine (load average 6, a busy loop per core) adds to a bound
 SHORT = {"kind": "intercept", "preset": "long-range-intercept",  # about a tenth of a second
          "params": {"methods": ["impulsive"], "scan": {"step_s": 2.0}}}
-LONG = {"kind": "intercept", "preset": "long-range-intercept",  # a few seconds: it is running when the link dies
-        "params": {"methods": ["impulsive"], "scan": {"step_s": 0.05}}}
+# Running when the link dies: the robust shuttle entry takes seconds warm (6.3 s here, load 2; the heavy pool
+# of each host runs one). The fine impulsive scan once used here takes 0.17 s warm: a host's first one lasted
+# only through its start-up, and one that ended before the cut would have voided the scenario.
+LONG = {"kind": "robust_reentry", "preset": "robust-max-crossrange", "params": {"monte_carlo": {"samples": 2000}}}
+LONG_JOBS = 4  # two per host: one running in each heavy pool at the cut, one queued behind it
+# a study's points: a second or less each (the fine impulsive scan), so four are queued at once
+SCAN = {"kind": "intercept", "preset": "long-range-intercept", "params": {"methods": ["impulsive"], "scan": {"step_s": 0.05}}}
 
 
 @pytest.fixture
@@ -95,7 +100,7 @@ def test_a_worker_host_cut_off_longer_than_the_stale_limit_during_a_burst(hosts_
     stack.start_recovery()
     accepted, codes = [], []
     # long jobs first: each host has a slot running one when the link dies
-    accepted += [stack.submit(LONG).json()["id"] for _ in range(6)]
+    accepted += [stack.submit(LONG).json()["id"] for _ in range(LONG_JOBS)]
     deadline = time.monotonic() + 180  # the workers' start: a minute with a busy loop per core (load average 15)
     while True:
         on_a = [j for j, (status, worker, _) in _workers_of(stack, accepted).items()
@@ -145,7 +150,7 @@ def test_a_worker_host_cut_off_longer_than_the_stale_limit_during_a_burst(hosts_
     ran_on = {host: len(re.findall(r"attempt \d+ started", (stack.tmp / f"worker-{host}.log").read_text(errors="replace")))
               for host in ("a", "b")}
     taken_over = _workers_of(stack, on_a)
-    long_s = _longest_first_run_s(stack, accepted[:6])
+    long_s = _longest_first_run_s(stack, accepted[:LONG_JOBS])
     report("worker-host-cut", accepted=len(accepted), answered=len(codes), lost=len(lost), stored_twice=len(twice),
            started_on_a=ran_on["a"], started_on_b=ran_on["b"], cut_s=restored_at - cut_at, taken_over=len(on_a),
            requeued_s=requeued_s or -1.0, slot_free_s=slot_free_s or -1.0, long_job_s=long_s, stale_after_s=stale_s)
@@ -227,7 +232,7 @@ def test_a_study_runs_across_two_worker_hosts(hosts_stack):
         stack.start_worker(concurrency=1, name=f"worker-{name}", env={**_urls(stack, link), **TIMEOUTS},
                            prefix=hosts[name].exec_prefix())
     stack.start_recovery()
-    body = {**LONG, "mode": "independent", "label": "across hosts",
+    body = {**SCAN, "mode": "independent", "label": "across hosts",
             "sweeps": [{"path": "scan.step_s", "values": [0.05, 0.06, 0.07, 0.08]}]}
     r = stack.client.post("/v1/studies", json=body)
     assert r.status_code == 202, r.text
