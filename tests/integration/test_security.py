@@ -30,8 +30,10 @@ pytestmark = pytest.mark.integration
 
 QUICK = {"kind": "intercept", "preset": "long-range-intercept",
          "params": {"methods": ["impulsive"], "scan": {"step_s": 5.0}}}
-# 100 x 5000 NSGA-II: cost 100,000 (heavy queue), minutes of work; cancelled at the end.
-HEAVY = {"kind": "midcourse", "preset": "upper-stage-two-corrections", "params": {"generations": 5000, "seed": 5}}
+# 1000 x 5000 NSGA-II, the largest allowed: cost 1,000,000 (heavy queue), most of a minute of work on any CPU
+# (100 x 5000 took 4.6 s here: a quick job queued behind it could outlast it); cancelled at the end.
+HEAVY = {"kind": "midcourse", "preset": "upper-stage-two-corrections",
+         "params": {"population": 1000, "generations": 5000, "seed": 5}}
 
 
 class Secure:
@@ -73,7 +75,7 @@ def secure(pg_url, tmp_path_factory):
     r, broker_url = claim_redis_db(REDIS_URL)  # our own queues: no other test's worker takes our jobs
     log_dir = tmp_path_factory.mktemp("security")
     overrides = {"TRAJLAB_DATABASE_URL": pg_url, "TRAJLAB_BROKER_URL": broker_url, "TRAJLAB_AUTH": "required",
-                 "TRAJLAB_HEARTBEAT_INTERVAL_S": "0.5", "TRAJLAB_MAX_ACTIVE_COST_PER_OWNER": "150000"}
+                 "TRAJLAB_HEARTBEAT_INTERVAL_S": "0.5", "TRAJLAB_MAX_ACTIVE_COST_PER_OWNER": "1500000"}
     env = {**os.environ, **overrides, "PYTHONPATH": str(ROOT)}
     suffix = uuid.uuid4().hex[:6]  # key names are unique per database; the database is shared by the run
     keys = {}
@@ -186,7 +188,7 @@ def test_quick_job_finishes_while_two_heavy_jobs_hold_the_heavy_workers(secure):
         for who, job in zip(("heavy1", "heavy2"), heavy):
             assert job["status"] == "queued" and jobs.get_job(db, job["id"]).queue == QUEUE_HEAVY, job
             secure.wait(who, job["id"], ("running",), timeout=90)
-        # The cost budget (150,000 here) refuses a second 100,000 job of the same owner.
+        # The cost budget (1,500,000 here) refuses a second 1,000,000 job of the same owner.
         r = secure.submit("heavy1", HEAVY)
         assert r.status_code == 429 and int(r.headers["Retry-After"]) > 0 and "budget" in r.json()["detail"]
         t0 = time.monotonic()
