@@ -91,11 +91,6 @@ def _robust(params: dict, problem: OcpProblem, limits: OcpLimits):
     constraints (a name in several phases is held in each)."""
     if params.get("uncertainty") is None and params.get("robust") is None:
         return None
-    for i, named in enumerate(problem.phases):
-        if named.problem.phase.transcription.method != "multiple_shooting":
-            at = "params" if problem.single else f"params.phases.{i}"
-            raise OcpInputError(f"{at}.transcription.method", "robust design is transcribed by multiple shooting "
-                                                              "only (LGL is not done yet, issue 37)")
     for j, lk in enumerate(problem.links):
         if any(isinstance(n, Boundary) for n in walk(lk.expr)):
             # a jump relates the draws' states by an equation the covariance and the Monte Carlo would have to

@@ -82,7 +82,6 @@ def test_the_parsed_uncertainty_defaults_mean_to_the_declared_value_and_k_and_st
     ({"robust": {"monte_carlo": {"samples": 10 ** 7}}}, "params.robust.monte_carlo.samples",
      "max_monte_carlo_samples"),
     ({"uncertainty": None}, "params.uncertainty", "needs the uncertainty"),
-    ({"transcription": {"method": "lgl", "intervals": 10}}, "params.transcription.method", "multiple shooting"),
 ])
 def test_a_malformed_uncertainty_is_refused_naming_the_field(change, path, words):
     _refused(_with(**change), path, words)

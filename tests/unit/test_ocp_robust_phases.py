@@ -124,12 +124,18 @@ def test_a_link_of_states_in_a_robust_problem_is_refused_naming_it():
     assert exc.value.path == "params.links.0" and "not done" in exc.value.reason
 
 
-def test_an_lgl_phase_of_a_robust_problem_is_refused_at_its_transcription():
+def test_an_lgl_phase_of_a_robust_problem_succeeds_through_the_kind():
+    """Once refused at its transcription (LGL was not done): now collocated (tests/unit/test_ocp_robust_lgl.py)."""
+    from app.kinds.ocp.kind import run
+    from app.kinds.ocp.params import OcpParams
+    from tests.support import RecordingContext
+
     body = copy.deepcopy(TWO)
     body["phases"][1]["transcription"] = {"method": "lgl", "intervals": 5}
-    with pytest.raises(OcpInputError) as exc:
-        parse_problem(body)
-    assert exc.value.path == "params.phases.1.transcription.method"
+    body["robust"]["monte_carlo"] = {"samples": 400, "rounds": 0}
+    out = run(OcpParams.model_validate(body), RecordingContext())
+    assert out.status == "succeeded", out.error
+    assert out.result["robust"]["confirmed"] is True
 
 
 def test_a_robust_job_of_two_phases_succeeds_through_the_kind_with_its_phases_and_robust_block():

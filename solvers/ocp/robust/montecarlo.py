@@ -7,9 +7,10 @@ uncertainty's means and covariances (a uniform constant by its ends).  :func:`mo
 rebuilds the dynamics from the same CasADi symbols the NLP used: the state is ``[x; q; t]`` (the
 integral of a Lagrange term, and time, so that a time-dependent right-hand side needs nothing more),
 and the compiled propagation (``kernel``) advances all samples of a chunk by one RK4 step per call of
-a CasADi function ``map``-ped over them (the RK4 of the transcription, its controls linear or constant
-between the nodes; ``substeps`` steps per interval, the dense grid on which each named path constraint
-is checked).  Terminal quantities: ``objective`` (the Mayer term plus the integral, in the user's
+a CasADi function ``map``-ped over them (``substeps`` RK4 steps between neighbouring nodes, the dense grid on
+which each named path constraint is checked, the control at every RK4 stage the transcription's own: linear
+or constant between shooting nodes, on LGL the segment's interpolating polynomial through its node controls,
+as :func:`solvers.ocp.verify.control_function` re-flies a deterministic answer).  Terminal quantities: ``objective`` (the Mayer term plus the integral, in the user's
 sense), each named boundary constraint's value and ``kept:NAME`` (1 where it holds), so the merged
 means are the kept fractions; ``objective`` and the named boundary values are kept per draw (the first
 :data:`solvers.uncertainty.montecarlo.MAX_TERMINAL_SAMPLES`: the result's histograms and CSV).  A problem
@@ -26,7 +27,9 @@ from collections import OrderedDict
 import casadi as ca
 import numpy as np
 
+from solvers.ocp.grid import grid_of
 from solvers.ocp.phase import positive_scale
+from solvers.transcription.lgl import lagrange_matrix, lgl_nodes
 
 from solvers.uncertainty.montecarlo import MCModel
 from solvers.uncertainty.montecarlo import PathConstraint as MCPath
@@ -52,9 +55,11 @@ def monte_carlo_spec(params: dict, *, problem, rob, design=None, t_nodes=None, U
         Uc = np.asarray(d.U, float)
         if Uc.shape[1] == len(d.t_nodes) - 1:      # constant controls: the last node repeats the last interval's
             Uc = np.hstack([Uc, Uc[:, -1:]])
+        lgl = ph.transcription.method == "lgl"
         phases.append({"t0": float(d.t0), "tf": float(d.tf), "t_nodes": [float(v) for v in d.t_nodes],
                        "controls": Uc.tolist(), "u0": Uc[:, 0].tolist(), "uf": Uc[:, -1].tolist(),
-                       "control": ph.transcription.control,
+                       "control": "lgl" if lgl else ph.transcription.control,
+                       **({"segment_nodes": grid_of(named.problem).nodes_per_interval().tolist()} if lgl else {}),
                        # the design's initial state (a free one solved; a later phase's unlinked states)
                        "x0": [float(v) for v in np.asarray(d.Z, float)[:nx, 0]]})
     first = problem.phases[0].problem
@@ -131,13 +136,13 @@ class _PhaseFlight:
         f = fns.rhs(t, x[:nx], u, theta, c, t0, tf)
         self.rhs = rhs = ca.Function("mc_rhs", [x, u, s], [ca.vertcat(f, ca.SX(1.0))])
 
-        # one RK4 step, the control linear from ua to ub over it (constant: ua = ub)
-        ua, ub, h = ca.SX.sym("ua", nu), ca.SX.sym("ub", nu), ca.SX.sym("h")
+        # one RK4 step, the control at its start, middle and end given
+        ua, um, ub, h = ca.SX.sym("ua", nu), ca.SX.sym("um", nu), ca.SX.sym("ub", nu), ca.SX.sym("h")
         k1 = rhs(x, ua, s)
-        k2 = rhs(x + 0.5 * h * k1, 0.5 * (ua + ub), s)
-        k3 = rhs(x + 0.5 * h * k2, 0.5 * (ua + ub), s)
+        k2 = rhs(x + 0.5 * h * k1, um, s)
+        k3 = rhs(x + 0.5 * h * k2, um, s)
         k4 = rhs(x + h * k3, ub, s)
-        self.step = ca.Function("mc_step", [x, ua, ub, h, s], [x + h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)])
+        self.step = ca.Function("mc_step", [x, ua, um, ub, h, s], [x + h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)])
 
         self.path_named = [(j, cn) for j, cn in enumerate(ph.path) if cn.name in names]
         g = fns.path(t, x[:nx], u, theta, c, t0, tf)
@@ -166,20 +171,42 @@ class _PhaseFlight:
                                self.theta, self.c)
 
     def interval_fn(self, substeps: int):
-        """One interval of ``substeps`` RK4 steps of one sample: (x, ua, ub, h, s) -> (x_end, the worst
-        excess of each named path constraint over the steps' ends, the excess at the end)."""
+        """``substeps`` RK4 steps of one sample between two neighbouring nodes: (x, Us, h, s) -> (x_end, the
+        worst excess of each named path constraint over the steps' ends, the excess at the end); ``Us``
+        (nu x 2 substeps + 1) the control at the steps' ends and middles (:func:`stage_controls`)."""
         if substeps not in self.intervals:
             nu, npath, s = self.nu, len(self.path_named), self.s
-            xa, a, b, hi = ca.SX.sym("x", self.n), ca.SX.sym("ua", nu), ca.SX.sym("ub", nu), ca.SX.sym("h")
+            xa, Us, hi = ca.SX.sym("x", self.n), ca.SX.sym("Us", nu, 2 * substeps + 1), ca.SX.sym("h")
             xk = xa
             e = worst = ca.SX.zeros(npath) - ca.inf
             for j in range(substeps):
-                u1, u2 = a + (j / substeps) * (b - a), a + ((j + 1) / substeps) * (b - a)
-                xk = self.step(xk, u1, u2, hi / substeps, s)
-                e = self.pathf(xk, u2, s)
+                xk = self.step(xk, Us[:, 2 * j], Us[:, 2 * j + 1], Us[:, 2 * j + 2], hi / substeps, s)
+                e = self.pathf(xk, Us[:, 2 * j + 2], s)
                 worst = ca.fmax(worst, e)
-            self.intervals[substeps] = ca.Function("mc_interval", [xa, a, b, hi, s], [xk, worst, e])
+            self.intervals[substeps] = ca.Function("mc_interval", [xa, Us, hi, s], [xk, worst, e])
         return self.intervals[substeps]
+
+
+def stage_controls(d: dict, nu: int, substeps: int) -> list[np.ndarray]:
+    """Per pair of neighbouring nodes of the phase ``d`` (a spec's phase), the control at the ends and middles
+    of its ``substeps`` RK4 steps (nu x 2 substeps + 1): linear or constant between shooting nodes, on LGL the
+    segment's Lagrange polynomial through its node controls (the transcription's own control, which the
+    Monte Carlo re-flies)."""
+    Uc = np.asarray(d["controls"], float).reshape(nu, -1)
+    tn = np.asarray(d["t_nodes"], float)
+    f = np.arange(2 * substeps + 1) / (2.0 * substeps)
+    if d["control"] != "lgl":
+        return [Uc[:, j:j + 1] + f[None, :] * ((Uc[:, j + 1] if d["control"] == "linear" else Uc[:, j]) - Uc[:, j])[:, None]
+                for j in range(tn.size - 1)]
+    out, a = [], 0
+    for n in d["segment_nodes"]:
+        b = a + int(n) - 1
+        L = lgl_nodes(int(n))
+        for j in range(a, b):
+            s = 2.0 * (tn[j] + f * (tn[j + 1] - tn[j]) - tn[a]) / (tn[b] - tn[a]) - 1.0
+            out.append(Uc[:, a:b + 1] @ lagrange_matrix(L, s).T)
+        a = b
+    return out
 
 
 def _build_model(mp: dict) -> MCModel:
@@ -271,6 +298,7 @@ def _build_model(mp: dict) -> MCModel:
             Uc = np.asarray(d["controls"], float).reshape(f.nu, -1)
             tn = d["t_nodes"]
             F = mapped(f.interval_fn(int(substeps)), n)
+            stages = stage_controls(d, f.nu, int(substeps))
             npath = len(f.path_named)
             wf, wn = np.full((npath, n), -np.inf), np.full((npath, n), -np.inf)
             if npath:
@@ -278,8 +306,7 @@ def _build_model(mp: dict) -> MCModel:
                 wf, wn = np.maximum(wf, e0), np.maximum(wn, e0)
             keep(0, Uc)
             for j in range(len(tn) - 1):
-                a, b = Uc[:, j], (Uc[:, j + 1] if d["control"] == "linear" else Uc[:, j])
-                xk, w, e = F(xk, ca.DM(a), ca.DM(b), float(tn[j + 1] - tn[j]), sv)
+                xk, w, e = F(xk, ca.DM(stages[j]), float(tn[j + 1] - tn[j]), sv)
                 keep(j + 1, Uc)
                 if npath:
                     w = np.asarray(w, float).reshape(npath, n)

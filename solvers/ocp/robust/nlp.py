@@ -1,5 +1,6 @@
-"""The robust problem as a multiple-shooting NLP: each phase's augmented functions of
-:mod:`solvers.ocp.robust.cadet` transcribed by the deterministic :class:`solvers.ocp.phase.PhaseNLP`, the
+"""The robust problem as an NLP on each phase's own transcription (multiple shooting or LGL): each phase's
+augmented functions of :mod:`solvers.ocp.robust.cadet` transcribed by the deterministic
+:class:`solvers.ocp.phase.PhaseNLP`, the
 phases assembled as the deterministic :class:`solvers.ocp.trajectory.TrajectoryNLP` assembles them (a
 problem posed as one phase is the one-phase case; several are linked by
 :class:`solvers.ocp.robust.phases.RobustTrajectory`, whose events also carry the covariance across the
@@ -13,6 +14,12 @@ elsewhere, each entry scaled by its largest magnitude along the twin's controls 
 orders of magnitude between a position and an angle).  Rows: the defects (mean and sensitivities), per
 node the path rows (``mu`` in the constraint's bounds, or ``mu + k sigma <= upper`` and
 ``mu - k sigma >= lower``), the boundary rows likewise, then (several phases) the events.
+
+The transcription treats the augmented state ``[mean; integral; S]`` as any state: RK4 steps of the
+variational equations on multiple shooting, and on LGL their collocation at the same nodes with the same
+integration matrix as the mean (``S_i = S_0 + (h/2) sum_j A_ij (F_x S_j + F_s)``), which is the collocation
+equations of the mean differentiated with respect to the draw ``w``: either way ``S`` is the exact
+sensitivity of the transcribed mean, never a finite difference, and ``P = S Sigma_w S^T``.
 
 The NLP is built once per job (:class:`RobustNLP`); a confirmation round that raises the constraints'
 ``k`` changes a parameter (:meth:`RobustNLP.place`'s ``k_c``), not the graph.
@@ -83,8 +90,6 @@ class RobustPhase:
         self.index = index
         self.name = problem.phases[index].name
         self.php = php = problem.phases[index].problem
-        if php.phase.transcription.method != "multiple_shooting":
-            raise ValueError("robust design is transcribed by multiple shooting only (LGL is not done yet)")
         self.fns = functions_of(php)
         self.lay: Layout = layout_of(problem, rob, self.fns, index)
         self.rf = RobustFunctions(self.fns, self.lay)
@@ -92,8 +97,11 @@ class RobustPhase:
         self.grid = self.det.grid
 
     def interval(self, substeps: int | None = None):
+        """RK4 of the augmented system over ``substeps`` steps, the control linear between the ends (constant
+        for multiple shooting's piecewise-constant controls): the guess's propagation and CADET's check
+        between the nodes (on LGL, between two nodes of a segment or two points of its dense grid)."""
         g = self.grid
-        grid = SimpleNamespace(substeps=substeps or g.substeps, control=g.control)
+        grid = SimpleNamespace(substeps=substeps or g.substeps, control="constant" if g.piecewise else "linear")
         return ms_interval(self.rf.fns, grid)  # type: ignore[arg-type]
 
     def scales(self) -> np.ndarray:
@@ -170,7 +178,7 @@ class RobustNLP:
             if X is not None:
                 z = np.concatenate([X[:, i], Z[rf.base.nx:, i]])
             ua = U[:, min(i, Ucols - 1)]
-            ub = U[:, min(i + 1, Ucols - 1)] if g.control == "linear" else ua
+            ub = ua if g.piecewise else U[:, min(i + 1, Ucols - 1)]
             ze, _ = F(z, ua, ub, t[i], t[i + 1] - t[i], theta, c_aug, t0, tf)
             z = np.asarray(ze, float).ravel()
             Z[:, i + 1] = z

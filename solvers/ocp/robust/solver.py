@@ -31,6 +31,7 @@ from solvers.ocp.solver import Placed
 from solvers.ocp.solver import solve as solve_deterministic
 from solvers.ocp.stages import ROBUST_DESIGN_PLAN, ROBUST_PLAN, ROBUST_ROUND_PLAN
 from solvers.ocp.trajectory import TrajectoryNLP
+from solvers.ocp.verify import control_function
 from solvers.uncertainty.confirm import clipped_quantile, kept_enough, normal_share, raised_k, sampling_tolerance
 
 DENSE = 10               # RK4 steps per interval of CADET's check between the nodes
@@ -232,21 +233,23 @@ def _predict_phase(R: RobustNLP, ip: int, P, d, rob, k_c: float, cons: dict, per
         return
     F = P.interval(1)
     rows = _path_rows(P.lay)
+    # between each pair of neighbouring nodes (a shooting interval, or two nodes of an LGL segment), the
+    # transcription's own control: linear or constant, or the segment's interpolating polynomial
+    u_of = control_function(g, d.t_nodes, d.U)
+    segment = np.searchsorted(g.offsets(), np.arange(g.n_nodes - 1), side="right") - 1
     ts, zs, us = [], [], []
-    for i in range(g.intervals):
+    for i in range(g.n_nodes - 1):
         ta, tb = d.t_nodes[i], d.t_nodes[i + 1]
-        ua = d.U[:, min(i, d.U.shape[1] - 1)]
-        ub = d.U[:, min(i + 1, d.U.shape[1] - 1)] if g.control == "linear" else ua
+        tj = ta + np.linspace(0.0, 1.0, DENSE + 1) * (tb - ta)
+        uj = u_of(tj, int(segment[i]))
         z = Z[:, i]
         for j in range(DENSE + 1):
-            f = j / DENSE
-            ts.append(ta + f * (tb - ta))
+            ts.append(tj[j])
             zs.append(z)
-            us.append(ua + f * (ub - ua))
+            us.append(uj[:, j])
             if j < DENSE:
-                h = (tb - ta) / DENSE
-                u1, u2 = ua + f * (ub - ua), ua + (f + 1.0 / DENSE) * (ub - ua)
-                z = np.asarray(F(z, u1, u2, ts[-1], h, th, c_aug, t0, tf)[0], float).ravel()
+                z = np.asarray(F(z, uj[:, j], uj[:, j + 1], tj[j], tj[j + 1] - tj[j], th, c_aug, t0, tf)[0],
+                               float).ravel()
     T, Zd, Ud = np.array(ts), np.array(zs).T, np.array(us).T
     Pv = np.asarray(rf.fns.path.map(T.size)(T[None, :], Zd, Ud, th, c_aug, t0, tf), float)
     is_node = np.zeros(T.size, bool)
@@ -256,8 +259,8 @@ def _predict_phase(R: RobustNLP, ip: int, P, d, rob, k_c: float, cons: dict, per
         hi, lo = Pv[rows[j]], Pv[rows[j] + 1]
         e_hi, e_lo = _excess_v(hi, None, cn), _excess_v(None, lo, cn)
         e = np.maximum(e_hi, e_lo)
-        per_interval[(ip, j)] = (e_hi.reshape(g.intervals, DENSE + 1).max(axis=1),
-                                 e_lo.reshape(g.intervals, DENSE + 1).max(axis=1))
+        per_interval[(ip, j)] = (e_hi.reshape(g.n_nodes - 1, DENSE + 1).max(axis=1),
+                                 e_lo.reshape(g.n_nodes - 1, DENSE + 1).max(axis=1))
         dense = float(np.max(e))
         cons[cn.name] = _worse(cons.get(cn.name), {"kind": "path", "excess_scaled_nodes": float(np.max(e[is_node])),
                                                    "excess_scaled_dense": dense,
