@@ -39,6 +39,19 @@ def test_a_robust_job_fans_its_monte_carlo_across_workers_and_stores_the_robust_
         assert done["error"]["code"] == "not_robust"
 
 
+def test_a_robust_job_on_lgl_is_accepted_and_confirmed(service):
+    """Robust design on LGL was once a 422 at submission (issue 37 item 2); now it is designed and confirmed."""
+    body = copy.deepcopy(PUSHED)
+    body["transcription"] = {"method": "lgl", "intervals": 5, "nodes": 5}
+    body["robust"]["monte_carlo"] = {"samples": 400, "rounds": 0}
+    done = _submit(service, body, "ocp robust lgl")
+    assert done["status"] == "succeeded", done
+    result = _stored(service, done)
+    assert result["solver"]["method"] == "lgl" and result["robust"]["confirmed"] is True
+    c = result["robust"]["constraints"]["v_max"]
+    assert c["kept_fraction"] >= c["required_fraction"] - c["sampling_tolerance"]
+
+
 def test_doubled_sigmas_fail_not_robust_with_the_design_stored(service):
     body = copy.deepcopy(PUSHED)
     body["robust"]["monte_carlo"].update(sigma_factor=2.0, rounds=0)

@@ -13,9 +13,9 @@ The user's right-hand side ``f(t, x, u, theta, c, t0, tf)`` enters CADET as ``f(
 ``v = [u; t; theta; c; t0; tf]`` (everything deterministic, passed through; the constants ``c`` carry
 the uncertain ones' means, replaced by ``s``), and a Lagrange integrand is one more state (its
 variance is the objective's).  What comes out is a :class:`solvers.ocp.symbolic.PhaseFunctions` of the
-augmented state, so the deterministic transcription (:class:`solvers.ocp.phase.PhaseNLP`: RK4 shooting,
-block derivatives) builds the robust NLP unchanged: the variational equations are integrated by the
-same RK4 steps as the mean.  Its constants are ``[c; sigma_s; k; k_c; eps]`` (``k`` of the objective,
+augmented state, so the deterministic transcription (:class:`solvers.ocp.phase.PhaseNLP`: RK4 shooting or
+LGL collocation, block derivatives) builds the robust NLP unchanged: the variational equations are integrated
+by the same RK4 steps as the mean, or collocated at the same LGL nodes.  Its constants are ``[c; sigma_s; k; k_c; eps]`` (``k`` of the objective,
 ``k_c`` of the constraints: the Monte Carlo's rounds raise the latter alone); its path rows per constraint
 are ``mu`` (a constraint not named robust) or ``mu + k sigma`` and ``mu - k sigma`` (named), its
 boundary rows likewise, and its Mayer term the objective's ``mu + sign k sigma``.  ``sigma`` is

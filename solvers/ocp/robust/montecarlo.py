@@ -16,7 +16,9 @@ means are the kept fractions; ``objective`` and the named boundary values are ke
 :data:`solvers.uncertainty.montecarlo.MAX_TERMINAL_SAMPLES`: the result's histograms and CSV).  A problem
 posed as one phase is also traced at the kept node times (the envelope of the result's plots): every state
 (``state:NAME``) and the value of every named path constraint (``path:NAME``); several phases are not
-traced yet (the envelope's time grid is one phase's).
+traced yet (the envelope's time grid is one phase's).  The numpy propagator of
+:mod:`solvers.uncertainty.montecarlo` (a reference for checks, ``"propagator": "numpy"``) flies the node
+controls linearly between the nodes, so it matches the kernel on shooting only.
 """
 from __future__ import annotations
 

@@ -6,8 +6,9 @@ every constant at its declared value, which is its mean unless the uncertainty g
 warm-starts the robust NLP and prices robustness), then the robust NLP
 (:class:`solvers.ocp.robust.nlp.RobustNLP`), and checks the design's mean trajectory exactly as a
 deterministic answer is checked (:func:`solvers.ocp.check.check_phase`: the DOP853 re-flight at the means, the limits
-between the nodes).  CADET's prediction is evaluated at the nodes and between them (``DENSE`` RK4 steps per
-interval of the augmented system): the objective's mean and sigma and, per named constraint, the worst
+between the nodes).  CADET's prediction is evaluated at the nodes and between them (``DENSE`` RK4 steps of
+the augmented system between neighbouring nodes, the control the transcription's own: on LGL the segment's
+polynomial): the objective's mean and sigma and, per named constraint, the worst
 ``mu +- k sigma`` against its bounds.  :func:`confirm` folds a Monte Carlo summary of the design
 (:mod:`solvers.ocp.robust.montecarlo`, run by the caller: in process or fanned across workers) into the
 result's ``robust`` block (``shared/specs/ocp.md``, "Robust design") and decides ``confirmed``.
@@ -34,7 +35,7 @@ from solvers.ocp.trajectory import TrajectoryNLP
 from solvers.ocp.verify import control_function
 from solvers.uncertainty.confirm import clipped_quantile, kept_enough, normal_share, raised_k, sampling_tolerance
 
-DENSE = 10               # RK4 steps per interval of CADET's check between the nodes
+DENSE = 10               # RK4 steps between neighbouring nodes in CADET's check
 MAX_ROUNDS = 4           # tighten-and-re-solve rounds for the robust path limits between the nodes
 MARGIN_GROWTH = 1.5      # a round tightens by this times the excess (the excess moves as the answer does)
 HELD = 1e-4              # a scaled excess below this counts as held (the re-flight's tolerance is 1e-3)
