@@ -26,8 +26,13 @@ from tests.faults.servers import PostgresServer, RedisServer
 pytestmark = [pytest.mark.integration, pytest.mark.faults]
 
 LEASE_S = 4.0  # TRAJLAB_RECOVERY_LEASE_S here: a dead holder is replaced within about 4/3 of it
-SLOW = {"kind": "intercept", "preset": "long-range-intercept",  # about a tenth of a second each
+SLOW = {"kind": "intercept", "preset": "long-range-intercept",  # about 10 ms each, compiled
         "params": {"methods": ["impulsive"], "scan": {"step_s": 2.0}}}
+# The backlog the worker is taking when Redis fills: 24 of the fine scan (0.17 s each warm here), seconds of
+# deliveries. 24 of SLOW took a warm worker well under a second and were all done between two looks for one
+# running (a whole-suite run: "a delivery did not happen within 180 s").
+BACKLOG = {"kind": "intercept", "preset": "long-range-intercept",
+           "params": {"methods": ["impulsive"], "scan": {"step_s": 0.05}}}
 # Running when the database stops, on any machine: the robust shuttle entry (two IPOPT stages on CADET's
 # augmented NLP, then 2,000 Monte Carlo draws) takes seconds warm (6.3 s here, load 2). Shorter jobs ended
 # before the outage began and voided the scenario: the impulsive intercept (0.4 s warm), then Betts' entry
@@ -86,8 +91,8 @@ def test_redis_full_during_a_burst_with_work_in_flight(wstack):
         _start_warm_worker(stack)
     r = redis_lib.Redis.from_url(stack.redis.url)
     for policy in ("noeviction", "allkeys-lru"):
-        accepted = [stack.submit(SLOW).json()["id"] for _ in range(24)]  # a backlog the worker is taking
-        _wait(lambda ids=accepted: any(j["status"] == "running" for j in stack.statuses(ids).values()), 180,
+        accepted = [stack.submit(BACKLOG).json()["id"] for _ in range(24)]  # a backlog the worker is taking
+        _wait(lambda ids=accepted: any(j["status"] != "queued" for j in stack.statuses(ids).values()), 180,
               "a delivery")
         evicted_before = r.info("stats")["evicted_keys"]
         r.config_set("maxmemory-policy", policy)

@@ -158,8 +158,9 @@ def test_a_worker_host_cut_off_longer_than_the_stale_limit_during_a_burst(hosts_
     assert set(codes) == {202}, Counter(codes)  # the API never noticed: host a was cut, not the API
     assert not lost, [jobs.get(j) for j in lost[:3]]
     assert not twice and all(stored[j] == 1 for j in accepted)
-    # host a's jobs were finished by host b, on their second attempt
-    assert all(attempts == 2 and "fault1@" not in worker for _, worker, attempts in taken_over.values()), taken_over
+    # host a's jobs were re-queued and finished on their second attempt, by whichever heavy slot was free first:
+    # host b's, or host a's own once its link was back (host b's slot may still hold its own long job)
+    assert all(status == "succeeded" and attempts == 2 for status, _, attempts in taken_over.values()), taken_over
     # The reaper re-queues once the heartbeat is stale_after_s old; its pass runs every reaper_interval_s; if
     # host a held the recovery lease, another candidate takes the lease over within 4/3 of its length.  The
     # margin is what a loaded machine (load average 6) adds to a recovery pass and to this test's polling.
