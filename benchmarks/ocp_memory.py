@@ -9,13 +9,13 @@ few iterations, so the figure is what the job builds (the NLP, its derivatives, 
 the check solve on the finer mesh), not how long it searches.  The peak is the child's own high-water
 mark (``VmHWM``, measured by :mod:`benchmarks.memory`'s child as every kind's is); the estimate is :func:`app.service.job_memory.measured_mb` (without the margin).
 Figures go to ``benchmarks/results/latest.json`` under ``ocp_memory``, and their table to README.md
-between ``<!-- ocp_memory table -->`` and ``<!-- /ocp_memory table -->`` (``--readme-only`` rewrites the
-table from latest.json without measuring).
+between ``<!-- bench: ocp_memory -->`` and ``<!-- /bench -->`` (rendered by
+:func:`benchmarks.results.tables.ocp_memory`; ``--readme-only``, or ``scripts/docs_numbers.py --tables``,
+rewrites it from latest.json without measuring).
 """
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
 from benchmarks.job_memory import ROOT, child_figures
@@ -85,23 +85,12 @@ def measure(params: dict, timeout_s: float = 900) -> dict:
 
 
 README = ROOT / "README.md"
-BEGIN, END = "<!-- ocp_memory table -->", "<!-- /ocp_memory table -->"
 
 
-def table(entry: dict) -> str:
-    """The README's table of ``entry`` (latest.json's ``ocp_memory``): each case's size, estimate and peak."""
-    rows = ["| case | problem | estimate MB | measured peak MB | estimate / peak |", "|---|---|---|---|---|"]
-    for name, f in entry["figures"].items():
-        rows.append(f"| `{name}` | {SIZES.get(name, '')} | {f['estimate_mb']:.0f} | {f['peak_mb']:.0f} | "
-                    f"{f['ratio']:.2f} |")
-    return "\n".join(rows) + f"\n\n(`python -m benchmarks.ocp_memory`, {entry['when']}, {entry['machine']})"
-
-
-def write_readme(entry: dict) -> None:
-    text = README.read_text()
-    head, rest = text.split(BEGIN, 1)
-    _, tail = rest.split(END, 1)
-    README.write_text(f"{head}{BEGIN}\n{table(entry)}\n{END}{tail}")
+def write_readme() -> None:
+    """README's table from latest.json (its renderer reads ``SIZES`` above for each case's problem)."""
+    from benchmarks.results.tables import write_tables
+    write_tables([README])
 
 
 def main() -> int:
@@ -109,9 +98,9 @@ def main() -> int:
     ap.add_argument("--cases", default=",".join(CASES))
     ap.add_argument("--readme-only", action="store_true", help="rewrite README's table from latest.json only")
     args = ap.parse_args()
-    from benchmarks.results import LATEST, write_results
+    from benchmarks.results import write_results
     if args.readme_only:
-        write_readme(json.loads(LATEST.read_text())["ocp_memory"])
+        write_readme()
         return 0
     from app.service.job_memory import measured_mb
 
@@ -125,7 +114,7 @@ def main() -> int:
         figures[name] = r
         print(f"{name:<20}{r['status']:<11}{est:>13.0f}{r['peak_mb']:>10.0f}{r['ratio']:>8.2f}", flush=True)
     write_results("ocp_memory", figures)
-    write_readme(json.loads(LATEST.read_text())["ocp_memory"])
+    write_readme()
     return 0
 
 

@@ -16,6 +16,12 @@ Usage (a service running, e.g. ``make run PORT=8317`` and its export line)::
 
 It prints each quote it changed (old and new lines).  The check that the pages agree with a run, within
 each quote's tolerance, is the docs test's (it runs the same blocks on every test run).
+
+``--tables`` (no service needed) rewrites instead every table of benchmark figures between
+``<!-- bench: NAME -->`` and ``<!-- /bench -->`` from ``benchmarks/results/latest.json``
+(:mod:`benchmarks.results.tables`; ``tests/unit/test_docs_tables.py`` holds the pages to it)::
+
+    .venv/bin/python scripts/docs_numbers.py --tables              # after a benchmark run
 """
 from __future__ import annotations
 
@@ -116,7 +122,15 @@ def rewrite(path: Path, outputs: dict[int, str]) -> tuple[str, list[str]]:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("pages", nargs="*", type=Path, help="pages to refresh (default: every page with a headline quote)")
+    ap.add_argument("--tables", action="store_true",
+                    help="rewrite the tables between <!-- bench: NAME --> markers from benchmarks/results/latest.json")
     args = ap.parse_args(argv)
+    if args.tables:
+        sys.path.insert(0, str(ROOT))       # run as a script: benchmarks/ is beside it, not installed
+        from benchmarks.results.tables import write_tables
+        for name in write_tables([p.resolve() for p in args.pages] or None):
+            print(f"{name}: tables rewritten from benchmarks/results/latest.json")
+        return 0
     if not os.environ.get("TRAJLAB_URL"):
         ap.error("TRAJLAB_URL is not set: start the service (make run) and paste its export line")
     pages = [p.resolve() for p in args.pages] or sorted(
