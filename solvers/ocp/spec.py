@@ -19,9 +19,10 @@ import math
 from dataclasses import replace
 
 from solvers.ocp import phases_spec
-from solvers.ocp.expressions import Boundary, OcpInputError, Scope, walk
+from solvers.ocp.expressions import OcpInputError, Scope
 from solvers.ocp.phase_spec import Shared, declarations, parse_phase, time_spec
 from solvers.ocp.problem import NamedPhase, Objective, OcpProblem, PhaseProblem, PhaseTime, TableDecl, TimeSpec
+from solvers.ocp.robust.links import carried_links
 from solvers.ocp.robust.spec import parse_robust
 from solvers.ocp.shape import FIELDS
 from solvers.ocp.readers import (
@@ -91,13 +92,7 @@ def _robust(params: dict, problem: OcpProblem, limits: OcpLimits):
     constraints (a name in several phases is held in each)."""
     if params.get("uncertainty") is None and params.get("robust") is None:
         return None
-    for j, lk in enumerate(problem.links):
-        if any(isinstance(n, Boundary) for n in walk(lk.expr)):
-            # a jump relates the draws' states by an equation the covariance and the Monte Carlo would have to
-            # solve per sample; links of times alone hold for the plan
-            raise OcpInputError(f"params.links.{j}", "robust design with a link of states (initial(), final()) "
-                                                     "is not done yet (issue 37): only the default continuity of "
-                                                     "states and links of times carry the covariance")
+    carried_links(problem)       # a link of states that cannot carry the covariance is refused, named
     trees, path, boundary = [], [], []
     for named in problem.phases:
         ph, obj = named.problem.phase, named.problem.objective

@@ -17,7 +17,7 @@ import math
 import numpy as np
 import pytest
 
-from solvers.ocp import PRESETS, OcpInputError, parse_problem
+from solvers.ocp import PRESETS, parse_problem
 
 DYN = {"x": "v", "v": "u + w", "y": "-y + b"}
 UNCERTAINTY = {"parameters": {"w": {"distribution": "normal", "sigma": 0.2}, "b": {"distribution": "normal", "sigma": 0.2}},
@@ -116,12 +116,14 @@ def test_the_monte_carlo_re_flies_every_phase_and_confirms(twins):
     assert b2["objective"]["std"] == pytest.approx(sd, abs=4 * sd / math.sqrt(2 * 2000))
 
 
-def test_a_link_of_states_in_a_robust_problem_is_refused_naming_it():
+def test_a_link_of_states_in_a_robust_problem_carries_the_covariance():
+    """Once refused (issue 37): the stage drop sets stage 2's mass (tests/unit/test_ocp_robust_links.py)."""
+    from solvers.ocp.robust.links import carried_links
+
     body = copy.deepcopy(PRESETS["two-stage-ascent"]["params"])
     body["uncertainty"] = {"parameters": {"g": {"distribution": "normal", "sigma": 0.01}}}
-    with pytest.raises(OcpInputError) as exc:
-        parse_problem(body)
-    assert exc.value.path == "params.links.0" and "not done" in exc.value.reason
+    (link,) = carried_links(parse_problem(body))
+    assert (link.index, link.after, link.target, link.value) == (0, 1, "m", 0.0)
 
 
 def test_an_lgl_phase_of_a_robust_problem_succeeds_through_the_kind():

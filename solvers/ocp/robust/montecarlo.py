@@ -31,6 +31,7 @@ import numpy as np
 
 from solvers.ocp.grid import grid_of
 from solvers.ocp.phase import positive_scale
+from solvers.ocp.robust.links import carried_links, solve_link
 from solvers.transcription.lgl import lagrange_matrix, lgl_nodes
 
 from solvers.uncertainty.montecarlo import MCModel
@@ -194,7 +195,7 @@ def stage_controls(d: dict, nu: int, substeps: int) -> list[np.ndarray]:
     of its ``substeps`` RK4 steps (nu x 2 substeps + 1): linear or constant between shooting nodes, on LGL the
     segment's Lagrange polynomial through its node controls (the transcription's own control, which the
     Monte Carlo re-flies)."""
-    Uc = np.asarray(d["controls"], float).reshape(nu, -1)
+    Uc = np.asarray(d["controls"], float).reshape(nu, len(d["t_nodes"]))
     tn = np.asarray(d["t_nodes"], float)
     f = np.arange(2 * substeps + 1) / (2.0 * substeps)
     if d["control"] != "lgl":
@@ -294,10 +295,10 @@ def _build_model(mp: dict) -> MCModel:
                 traces[:, rows[node], :] = np.asarray(mapped(first.tracef, n)(xk, u, sv), float).reshape(-1, n)
         for i, f in enumerate(flights):
             if i:
-                xk = ca.DM(_start_of(problem, flights, i, np.asarray(xk, float), n))
+                xk = ca.DM(_start_of(problem, flights, i, np.asarray(xk, float), n, np.asarray(sv, float)))
             stack.append(np.asarray(xk, float))
             d = f.d
-            Uc = np.asarray(d["controls"], float).reshape(f.nu, -1)
+            Uc = np.asarray(d["controls"], float).reshape(f.nu, len(d["t_nodes"]))
             tn = d["t_nodes"]
             F = mapped(f.interval_fn(int(substeps)), n)
             stages = stage_controls(d, f.nu, int(substeps))
@@ -332,9 +333,10 @@ def _build_model(mp: dict) -> MCModel:
                    trace=traced if problem.single else None, sampled_terminal=sampled)
 
 
-def _start_of(problem, flights, i: int, xprev: np.ndarray, n: int) -> np.ndarray:
-    """Phase ``i``'s start of every sample: the states linked by continuity from phase ``i - 1``'s end, the
-    others where the design sets them, the integral at zero, the clock at the phase's start."""
+def _start_of(problem, flights, i: int, xprev: np.ndarray, n: int, s: np.ndarray) -> np.ndarray:
+    """Phase ``i``'s start of every sample: the states linked by continuity from phase ``i - 1``'s end, those a
+    link sets solved from it (:mod:`solvers.ocp.robust.links`), the others where the design sets them, the
+    integral at zero, the clock at the phase's start."""
     f, fp = flights[i], flights[i - 1]
     x = np.zeros((f.n, n))
     x[:f.nx] = np.asarray(f.d["x0"], float)[:, None]
@@ -343,8 +345,19 @@ def _start_of(problem, flights, i: int, xprev: np.ndarray, n: int) -> np.ndarray
     for k, name in problem.state_links:
         if k == i - 1:
             x[names.index(name)] = xprev[names_prev.index(name)]
+    for cl in carried_links(problem):
+        if cl.after == i:
+            x[names.index(cl.target)] = _solve_link(problem, cl, fp, f, xprev[:fp.nx], s)
     x[f.nx + f.nq] = float(f.d["t0"])
     return x
+
+
+def _solve_link(problem, cl, fp, f, xf: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """Each sample's state that ``cl`` sets, from the samples' previous ends ``xf`` and constants ``s``."""
+    return solve_link(problem, cl, y0=float(f.d["x0"][f.php.phase.state_names.index(cl.target)]), xf=xf,
+                      u=np.concatenate([fp.d["u0"], fp.d["uf"], f.d["u0"], f.d["uf"]]).astype(float),
+                      times=np.array([fp.d["t0"], fp.d["tf"], f.d["t0"], f.d["tf"]], float),
+                      theta=np.asarray(fp.theta, float).ravel(), s=s)
 
 
 def _events_objective(problem, flights, ends):

@@ -9,7 +9,8 @@ links), with this job's numbers (scales, bounds, constants) and a guess from the
 The mean's bounds and scales are the deterministic phase's own (:func:`solvers.ocp.scaling.numbers_of`);
 the integral of a Lagrange term starts at zero in every phase; the sensitivities start at ``S(0)`` (fixed) in
 the first phase and, in a later one, at the previous phase's final sensitivities on the states linked by
-continuity (zero on the others: a state the plan sets at a phase's start is certain); they are free
+continuity, free (guessed at ``J S``) on those a link sets (:mod:`solvers.ocp.robust.links`), zero on the
+others (a state the plan sets at a phase's start is certain); they are free
 elsewhere, each entry scaled by its largest magnitude along the twin's controls (their sizes differ by
 orders of magnitude between a position and an angle).  Rows: the defects (mean and sensitivities), per
 node the path rows (``mu`` in the constraint's bounds, or ``mu + k sigma <= upper`` and
@@ -34,6 +35,7 @@ import numpy as np
 from solvers.ocp.guess import guess_of
 from solvers.ocp.phase import PhaseNLP, ms_interval, positive_scale
 from solvers.ocp.problem import OcpProblem
+from solvers.ocp.robust.links import carried_start
 from solvers.ocp.robust.cadet import EPS_FRACTION, Layout, RobustFunctions, layout_of
 from solvers.ocp.robust.model import RobustSpec
 from solvers.ocp.scaling import numbers_of
@@ -209,7 +211,8 @@ class RobustNLP:
         S_end: np.ndarray | None = None
         for i, (P, b) in enumerate(zip(self.phases, nlp.blocks)):
             warm = {**det.phases[i], "parameters": det.parameters}
-            one = self._place_phase(P, b.nlp.layout, warm, k=k, k_c=k_c, S_prev=S_end, t0=float(det.phases[i]["t0"]))
+            one = self._place_phase(P, b.nlp.layout, warm, k=k, k_c=k_c, S_prev=S_end, t0=float(det.phases[i]["t0"]),
+                                    prev=det.phases[i - 1] if i else None)
             S_end = one["S_end"]
             lb, ub = one["lbz"], one["ubz"]
             if b.t0_col is not None:       # a phase of several: its window bounds its ends
@@ -232,7 +235,8 @@ class RobustNLP:
         return {"z0": np.clip(z0, lbz, ubz), "lbz": lbz, "ubz": ubz, "p": np.concatenate(p + [lscale]),
                 "lbg": np.concatenate(lbg + [elo]), "ubg": np.concatenate(ubg + [ehi]), "phases": per}
 
-    def _place_phase(self, P: RobustPhase, layout, warm: dict, *, k: float, k_c: float, S_prev, t0: float) -> dict:
+    def _place_phase(self, P: RobustPhase, layout, warm: dict, *, k: float, k_c: float, S_prev, t0: float,
+                     prev: dict | None = None) -> dict:
         php, g, rf, lay = P.php, P.grid, P.rf, P.lay
         ph = php.phase
         tf, theta, X, U = guess_of(php, g, warm)
@@ -245,6 +249,12 @@ class RobustNLP:
             S0 = np.zeros((n, nw))
             for ra, rb in self.linked_rows(P.index):
                 S0[rb] = S_prev[ra]
+                fixed[rb] = False
+            # a state a link sets from the previous end (solvers.ocp.robust.links): free, guessed at J S_prev
+            theta = [warm["parameters"][q.name] for q in self.problem.parameters]
+            for rb, row in carried_start(self.problem, P.index, S_prev=S_prev, prev=prev, this=warm, theta=theta,
+                                         c=self.c, s=self.c[list(lay.s_index)], r0=lay.r0).items():
+                S0[rb] = row
                 fixed[rb] = False
         Z = self.propagate(tf=tf, theta=theta, X0=None, U=U, X=X, phase=P.index, t0=t0, S0=S0)
         S_all = Z[n:].reshape(n, nw, N, order="F")
@@ -266,8 +276,8 @@ class RobustNLP:
         Zlb[n:, 0] = np.where(S_fixed, S0v, -INF)
         Zub[n:, 0] = np.where(S_fixed, S0v, INF)
         jU = i0 + nx * N
-        Ulb = num.lbz[jU:].reshape(rf.base.nu, -1, order="F") * num.u_scale[:, None]
-        Uub = num.ubz[jU:].reshape(rf.base.nu, -1, order="F") * num.u_scale[:, None]
+        Ulb = num.lbz[jU:].reshape(rf.base.nu, g.n_controls, order="F") * num.u_scale[:, None]
+        Uub = num.ubz[jU:].reshape(rf.base.nu, g.n_controls, order="F") * num.u_scale[:, None]
         ts, ths, us = num.t_scale, num.theta_scale, num.u_scale
 
         def pack(tf_, th_, Z_, U_):

@@ -6,8 +6,11 @@ The means link as a deterministic problem's do (time and shared states continuou
 (``w = [xi (the first phase's initial sigmas, whitened); ds (the uncertain constants)]``: one draw flies
 through all phases), and a state linked by continuity carries its row across: ``S_{k+1}(t0)[x] =
 S_k(tf)[x]`` (one event row per column), so the covariance at the end of phase ``k`` is the start
-covariance of phase ``k + 1`` on the linked states; a state the plan sets at a phase's start has zero
-sensitivity there (the bounds of :mod:`solvers.ocp.robust.nlp`).  Times are decision variables of the
+covariance of phase ``k + 1`` on the linked states; a link that sets a state ``y`` of the next start from
+the previous end (:mod:`solvers.ocp.robust.links`: a renamed state, an affine or any expression map) carries
+``S_{k+1}(t0)[y] = -(h_xf S_k(tf) + [0, h_s]) / h_y`` (the covariance ``J P J^T``, ``J`` the link's exact
+Jacobian); a state the plan sets at a phase's start has zero sensitivity there (the bounds of
+:mod:`solvers.ocp.robust.nlp`).  Times are decision variables of the
 open-loop plan, not uncertain: a time link holds for the means only.
 
 The objective is the problem's events Mayer term plus each phase's integral (the augmented phases carry
@@ -24,6 +27,7 @@ import numpy as np
 
 from solvers.ocp.phase import Element
 from solvers.ocp.problem import OcpProblem
+from solvers.ocp.robust.links import carried_links, link_map
 from solvers.ocp.symbolic import to_sx
 from solvers.ocp.trajectory import TrajectoryNLP
 
@@ -34,6 +38,7 @@ class RobustTrajectory(TrajectoryNLP):
 
     def __init__(self, mp: OcpProblem, phases: list, *, ipopt: dict | None = None):
         self.rphases = phases
+        self.carried = carried_links(mp)
         self.nw = phases[0].lay.r0 + phases[0].lay.ns
         super().__init__(mp, ipopt=ipopt, functions=[p.rf.fns for p in phases],
                          structure=("robust", mp.structure(), tuple(p.lay for p in phases)))
@@ -57,7 +62,7 @@ class RobustTrajectory(TrajectoryNLP):
         env = {n: c_s[i] for i, (n, _) in enumerate(mp.constants)}
         env.update({q.name: theta[i] for i, q in enumerate(mp.parameters)})
         ev: dict[tuple, Any] = {}
-        mean_syms, mean_vals, S0s, Sfs, ends = [], [], [], [], []
+        mean_syms, mean_vals, S0s, Sfs, ends, plan = [], [], [], [], [], []
         i = nth
         for b, rp in zip(self.blocks, self.rphases):
             f, n, nx = b.nlp.fns, rp.rf.n, rp.rf.base.nx
@@ -74,6 +79,7 @@ class RobustTrajectory(TrajectoryNLP):
             S0s.append(ca.reshape(z0[n:], n, self.nw))
             Sfs.append(ca.reshape(zf[n:], n, self.nw))
             ends.append((x0s, xfs, nx, rp.lay.nq, sp["xs"], n))
+            plan.append((t0, tf, u0, uf, z0[:nx], zf[:nx]))
             ev[("t0", b.name)], ev[("tf", b.name)] = t0, tf
             for j, x in enumerate(b.problem.state_names):
                 ev[("initial", x, b.name)], ev[("final", x, b.name)] = x0s[j], xfs[j]
@@ -93,7 +99,7 @@ class RobustTrajectory(TrajectoryNLP):
         var = ca.sum2(G[:, :r0] ** 2) + (ca.sum2((G[:, r0:] * sig.T) ** 2) if ns else 0)
         sign = mp.robust.objective_sign if mp.robust is not None else 0.0
         robust = J + sign * k * ca.sqrt(ca.fmax(var, 0) + eps[-1] ** 2) if sign else J
-        # the covariance across the links: S_{k+1}(t0)[x] = S_k(tf)[x] for each state continuous by default
+        # the covariance across the default continuity: S_{k+1}(t0)[x] = S_k(tf)[x]
         links = []
         for kk, x in mp.state_links:
             a, b = self.blocks[kk], self.blocks[kk + 1]
@@ -102,13 +108,26 @@ class RobustTrajectory(TrajectoryNLP):
             xs_a = ends[kk][4]
             scale = ca.vertcat(*[xs_a[na + col * na + ja] for col in range(self.nw)])
             links.append((S0s[kk + 1][jb, :].T - Sfs[kk][ja, :].T) / scale)
+        # a link that sets a state of the next start (solvers.ocp.robust.links): the implicit function's
+        # S_b(t0)[y] = -(h_xf S_a(tf) + [0, h_s]) / h_y, one row per column, scaled by the target's S scale
+        for cl in self.carried:
+            ia, ib = cl.after - 1, cl.after
+            jb = self.blocks[ib].problem.state_names.index(cl.target)
+            t0a, tfa, u0a, ufa, _, xfa = plan[ia]
+            t0b, tfb, u0b, ufb, x0b, _ = plan[ib]
+            _, h_y, h_xf, h_s = link_map(mp, cl)(x0b[jb], xfa, ca.vertcat(u0a, ufa, u0b, ufb),
+                                                 ca.vertcat(t0a, tfa, t0b, tfb), theta, c, mu_s)
+            carried = ca.mtimes(h_xf, Sfs[ia][:ends[ia][2], :]) + ca.horzcat(ca.SX.zeros(1, r0), h_s)
+            nb, xs_b = ends[ib][5], ends[ib][4]
+            scale = ca.vertcat(*[xs_b[nb + col * nb + jb] for col in range(self.nw)])
+            links.append((S0s[ib][jb, :] + carried / h_y).T / scale)
         rows = ca.vertcat(rows_base, *links)
         self.objective_moments = ca.Function("objective_moments", [w, P], [J, var])
-        self.n_sensitivity_links = len(mp.state_links) * self.nw
+        self.n_sensitivity_links = (len(mp.state_links) + len(self.carried)) * self.nw
         fn = ca.Function("ocp_robust_events", [w, P, ca.SX.sym("k")], [rows, self.sign * robust])
         return Element("events", fn, cols[None, :], np.zeros(1), True)
 
     def event_bounds(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         lo, hi, scales = super().event_bounds()
-        n = len(self.mp.state_links) * self.nw
+        n = (len(self.mp.state_links) + len(self.carried)) * self.nw
         return np.concatenate([lo, np.zeros(n)]), np.concatenate([hi, np.zeros(n)]), scales
