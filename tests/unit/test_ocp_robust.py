@@ -97,10 +97,11 @@ def test_the_service_model_refuses_at_the_field_with_the_setting():
     assert OcpParams.model_validate(copy.deepcopy(LINEAR)).problem.robust.k == 2.0
 
 
-def test_robust_design_of_several_phases_with_a_jump_is_refused_as_not_done():
+def test_robust_design_across_a_jump_that_sets_no_draws_start_is_refused_naming_it():
     body = copy.deepcopy(PRESETS["two-stage-ascent"]["params"])      # its stage drop links m across phases
     body["uncertainty"] = {"parameters": {"g": {"distribution": "normal", "sigma": 0.01}}}
-    _refused(body, "params.links.0", "not done")
+    body["links"][0]["lower"] = -10.0       # a range bounds the plan; the equality carries (test_ocp_robust_links)
+    _refused(body, "params.links.0", "stage1_drop")
 
 
 # --- 2. CADET through the user's dynamics: the closed form ---------------------------------------------------
