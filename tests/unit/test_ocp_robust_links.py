@@ -100,3 +100,46 @@ def test_a_robust_two_stage_ascent_with_an_uncertain_dropped_structure_is_confir
     assert obj["std"] == pytest.approx(sd, abs=4 * sd / math.sqrt(2 * 2000))
     assert obj["mean"] == pytest.approx(obj["cadet_mean"], abs=4 * sd / math.sqrt(2000))
     assert rs.solution.objective == pytest.approx(obj["cadet_mean"] - 2.0 * obj["cadet_std"], rel=1e-6)
+
+
+def test_the_plots_of_several_phases_draw_every_phases_states_with_cadets_band():
+    from matplotlib.figure import Figure
+
+    from app.kinds import KINDS
+    from app.kinds.base import InProcessContext
+    from app.kinds.ocp.result import OcpResult
+    from app.results.plots import plots_for
+    from app.service.params import resolve_params
+
+    spec = KINDS["ocp"]
+    params = resolve_params(spec, None, copy.deepcopy(RENAMED))
+    out = spec.run(spec.params_model.model_validate(params), InProcessContext())
+    assert out.status == "succeeded", out.error
+    result = out.result
+    OcpResult.model_validate(result)
+    rob = result["robust"]
+    by_name = {p.name: p for p in plots_for("ocp", result)}
+    assert {f"mc-state-{x}" for x in ("x", "v", "y", "X", "V")} | {"mc-constraint-v_max"} <= set(by_name)
+    env, cadet = rob["monte_carlo"]["envelope"], rob["cadet_envelope"]
+    ta, tb = (np.asarray(p["trajectory"]["t"]) for p in result["phases"])
+    assert env["t"] == [*ta, *tb] and cadet["t"] == [*ta, *tb]        # one time axis: a's nodes, then b's
+    k = rob["k"]
+    for x, own in (("x", ta), ("X", tb), ("V", tb), ("y", np.concatenate([ta, tb]))):
+        fig = Figure()
+        by_name[f"mc-state-{x}"].draw(fig, result, params)
+        ax = fig.axes[0]
+        lines = {ln.get_gid() or ln.get_label(): ln for ln in ax.lines}
+        mc = np.asarray(env["states"][x]["mean"], float)
+        np.testing.assert_allclose(lines["mean"].get_ydata(), mc, equal_nan=True)
+        assert np.isfinite(mc).sum() == own.size                        # the phase that has the state, only
+        dots = np.concatenate([ln.get_xdata() for ln in ax.lines if ln.get_marker() == "."])   # one per phase
+        np.testing.assert_allclose(dots, own)
+        up, lo = (np.asarray(lines[g].get_ydata(), float) for g in ("cadet-upper", "cadet-lower"))
+        std = np.array([np.nan if v is None else v for v in cadet["states"][x]["std"]])
+        np.testing.assert_allclose((up - lo) / (2 * k), std, rtol=1e-12, equal_nan=True)
+    # linear dynamics: at the end, the Monte Carlo's sigma of V is CADET's within 4 standard errors (2000 draws)
+    sd = cadet["states"]["V"]["std"][-1]
+    assert env["states"]["V"]["std"][-1] == pytest.approx(sd, abs=4 * sd / math.sqrt(2 * 2000))
+    # the stored CADET sigma of V at b's start is twice v's at a's end (the link's J = 2)
+    assert cadet["states"]["V"]["std"][ta.size] == pytest.approx(2 * cadet["states"]["v"]["std"][ta.size - 1],
+                                                                 rel=1e-12)

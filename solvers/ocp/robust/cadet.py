@@ -213,3 +213,27 @@ class RobustFunctions:
 
     def theta_numbers(self, c: np.ndarray, sigma_s: np.ndarray) -> np.ndarray:
         return CadetSystem.theta(c[list(self.lay.s_index)], np.diag(np.asarray(sigma_s, float) ** 2))
+
+
+def state_bands(problem, design, sigma_s: np.ndarray) -> dict:
+    """CADET's band of a design (``robust.cadet_envelope``, drawn beside the Monte Carlo's): the mean and the
+    standard deviation ``sqrt(diag(S Sigma_w S^T))`` of every state at every node, the phases one after
+    another on one time axis (None where a phase has not the state); the design's sigmas (the Monte Carlo
+    may fly them times ``sigma_factor``)."""
+    names = list(dict.fromkeys(x for ph in problem.phases for x in ph.problem.phase.state_names))
+    nw = len(problem.robust.initial) + sigma_s.size
+    weight = np.concatenate([np.ones(len(problem.robust.initial)), sigma_s ** 2])
+    t: list[float] = []
+    bands: dict[str, dict[str, list]] = {x: {"mean": [], "std": []} for x in names}
+    for named, d in zip(problem.phases, design.phases):
+        own = named.problem.phase.state_names
+        N = d.Z.shape[1]
+        n = d.Z.shape[0] // (1 + nw)
+        S = d.Z[n:].reshape(n, nw, N, order="F")
+        std = np.sqrt(np.einsum("inj,n->ij", S ** 2, weight))
+        t += [float(v) for v in d.t_nodes]
+        for x in names:
+            i = own.index(x) if x in own else None
+            bands[x]["mean"] += [None] * N if i is None else [float(v) for v in d.Z[i]]
+            bands[x]["std"] += [None] * N if i is None else [float(v) for v in std[i]]
+    return {"t": t, "states": bands}

@@ -13,10 +13,10 @@ or constant between shooting nodes, on LGL the segment's interpolating polynomia
 as :func:`solvers.ocp.verify.control_function` re-flies a deterministic answer).  Terminal quantities: ``objective`` (the Mayer term plus the integral, in the user's
 sense), each named boundary constraint's value and ``kept:NAME`` (1 where it holds), so the merged
 means are the kept fractions; ``objective`` and the named boundary values are kept per draw (the first
-:data:`solvers.uncertainty.montecarlo.MAX_TERMINAL_SAMPLES`: the result's histograms and CSV).  A problem
-posed as one phase is also traced at the kept node times (the envelope of the result's plots): every state
-(``state:NAME``) and the value of every named path constraint (``path:NAME``); several phases are not
-traced yet (the envelope's time grid is one phase's).  The numpy propagator of
+:data:`solvers.uncertainty.montecarlo.MAX_TERMINAL_SAMPLES`: the result's histograms and CSV).  The problem
+is also traced at the kept node times (the envelope of the result's plots): every state (``state:NAME``) and
+the value of every named path constraint (``path:NAME``), several phases on one time axis (their node times
+one after another, NaN where a phase has not the quantity).  The numpy propagator of
 :mod:`solvers.uncertainty.montecarlo` (a reference for checks, ``"propagator": "numpy"``) flies the node
 controls linearly between the nodes, so it matches the kernel on shooting only.
 """
@@ -77,7 +77,7 @@ def monte_carlo_spec(params: dict, *, problem, rob, design=None, t_nodes=None, U
         "model": "ocp",
         "model_params": {"params": params, "theta": [float(v) for v in np.atleast_1d(design.theta)],
                          "constraints": list(rob.constraints), "phases": phases},
-        "t_nodes": phases[0]["t_nodes"],
+        "t_nodes": [t for p in phases for t in p["t_nodes"]],   # the traces' times (each phase flies its own)
         "controls": phases[0]["controls"],
         "x0_mean": phases[0]["x0"] + [0.0] * nq + [phases[0]["t0"]],
         "x0_cov": cov0.tolist() if rob.initial else None,
@@ -278,6 +278,8 @@ def _build_model(mp: dict) -> MCModel:
     else:
         path = {name: MCPath(fn=_not_numpy, limit=0.0) for name in path_names}
 
+    trace_names = list(dict.fromkeys(q for f in flights for q in f.trace_names))   # every phase's
+
     def kernel(*, x0, s, t_nodes, controls, substeps, kept_nodes):
         del t_nodes, controls        # every phase's own, from the model's params
         n = x0.shape[1]
@@ -286,14 +288,17 @@ def _build_model(mp: dict) -> MCModel:
         worst_node = {nm: np.full(n, -np.inf) for nm in path_names}
         stack = []
         xk = ca.DM(np.ascontiguousarray(x0, float))
-        rows = {int(node): r for r, node in enumerate(kept_nodes)} if problem.single else {}
-        traces = np.full((len(first.trace_names), len(rows), n), np.nan)
+        rows = {int(node): r for r, node in enumerate(kept_nodes)}     # nodes of all phases, one after another
+        traces = np.full((len(trace_names), len(rows), n), np.nan)     # NaN: a quantity this phase has not
 
         def keep(node: int, Uc: np.ndarray) -> None:
-            if node in rows:
+            if node + offset in rows:
                 u = ca.DM(Uc[:, min(node, Uc.shape[1] - 1)])
-                traces[:, rows[node], :] = np.asarray(mapped(first.tracef, n)(xk, u, sv), float).reshape(-1, n)
+                traces[quantities, rows[node + offset], :] = np.asarray(mapped(f.tracef, n)(xk, u, sv),
+                                                                        float).reshape(-1, n)
+        offset = 0
         for i, f in enumerate(flights):
+            quantities = [trace_names.index(q) for q in f.trace_names]
             if i:
                 xk = ca.DM(_start_of(problem, flights, i, np.asarray(xk, float), n, np.asarray(sv, float)))
             stack.append(np.asarray(xk, float))
@@ -320,7 +325,8 @@ def _build_model(mp: dict) -> MCModel:
             for r, (_, cn) in enumerate(f.path_named):
                 np.maximum(worst_fine[cn.name], wf[r], out=worst_fine[cn.name])
                 np.maximum(worst_node[cn.name], wn[r], out=worst_node[cn.name])
-        return np.vstack(stack), worst_fine, worst_node, dict(zip(first.trace_names, traces)) if rows else {}
+            offset += len(tn)
+        return np.vstack(stack), worst_fine, worst_node, dict(zip(trace_names, traces)) if rows else {}
 
     def traced(xv, uv, sv):
         n = xv.shape[1]
@@ -330,7 +336,7 @@ def _build_model(mp: dict) -> MCModel:
 
     sampled = ("objective",) + tuple(dict.fromkeys(f"boundary:{cn.name}" for cn in bnd))
     return MCModel(nx=first.n, nu=nu, ns=ns, rhs=rhs_np, terminal=terminal, path=path, kernel=kernel,
-                   trace=traced if problem.single else None, sampled_terminal=sampled)
+                   trace=traced if problem.single else _not_numpy, sampled_terminal=sampled)
 
 
 def _start_of(problem, flights, i: int, xprev: np.ndarray, n: int, s: np.ndarray) -> np.ndarray:

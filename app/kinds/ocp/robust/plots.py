@@ -1,6 +1,7 @@
 """The plots of a robust ``ocp`` result, after the ``robust_reentry`` kind's (shared drawing in
 :mod:`app.results.plots`): every state's Monte Carlo mean and ``mean +- k sigma`` envelope against time with
-the design's mean trajectory at the nodes and the declared bounds; each named path constraint's value the
+CADET's predicted ``mean +- k sigma`` (dashed) and the design's mean trajectory at the nodes and the declared
+bounds, several phases on one time axis (a dotted line where each later phase starts); each named path constraint's value the
 same way against its limit (``k`` the constraints' k of the last round); a histogram of the objective over
 the draws, marked with the Monte Carlo's mean and statistic, CADET's and the deterministic twin's optimum;
 a histogram of each named boundary constraint's value against its limits.  The list follows from the stored
@@ -14,9 +15,10 @@ SIGN = {"mean_minus_k_sigma": -1.0, "mean": 0.0, "mean_plus_k_sigma": 1.0}   # t
 
 
 def _limits(params: dict | None, group: str, name: str) -> tuple[float | None, float | None]:
-    for c in (params or {}).get(group) or []:
-        if isinstance(c, dict) and c.get("name") == name:
-            return c.get("lower"), c.get("upper")
+    for ph in (params or {}).get("phases") or [params or {}]:      # several phases: the first declaring it
+        for c in ph.get(group) or []:
+            if isinstance(c, dict) and c.get("name") == name:
+                return c.get("lower"), c.get("upper")
     return None, None
 
 
@@ -27,17 +29,44 @@ def _mark_limits(ax, lower, upper, *, vertical: bool = False) -> None:
             line(b, color="C3", ls="--", lw=1.2, label=what)
 
 
+def _phases(ax, r) -> None:
+    """Several phases on one time axis: a dotted line where each later phase starts, named."""
+    for ph in (r.get("phases") or [])[1:]:
+        if isinstance(ph.get("t0"), (int, float)):
+            ax.axvline(ph["t0"], color="0.5", ls=":", lw=1.0)
+            ax.annotate(str(ph.get("name", "")), (ph["t0"], 1.0), xycoords=("data", "axes fraction"),
+                        fontsize=7, ha="left", va="top", color="0.4")
+
+
+def draw_cadet(ax, cadet: dict, name: str, k: float) -> None:
+    """CADET's ``mean +- k sigma`` of state ``name`` (dashed, beside the Monte Carlo's band)."""
+    t, band = floats(cadet["t"]), cadet["states"][name]
+    mean, std = floats(band["mean"]), floats(band["std"])
+    ax.plot(t, mean + k * std, color="C2", ls="--", lw=1.0, label=f"CADET mean +- {k:g} sigma", gid="cadet-upper")
+    ax.plot(t, mean - k * std, color="C2", ls="--", lw=1.0, gid="cadet-lower")
+
+
 def _state(name: str):
     def draw(fig, r, params):
         ax = fig.add_subplot()
         rob = r["robust"]
         env = rob["monte_carlo"]["envelope"]
         band = env["states"][name]
-        draw_band(ax, env["t"], band["mean"], band["std"], rob.get("k") or 3.0)
-        tr = r.get("trajectory") or {}
-        if isinstance(tr.get(name), list) and isinstance(tr.get("t"), list):
-            ax.plot(floats(tr["t"]), floats(tr[name]), "k.", ms=3, label="design (nodes)")
-        _mark_limits(ax, *declared_bounds(params or {}, name))
+        k = rob.get("k") or 3.0
+        draw_band(ax, env["t"], band["mean"], band["std"], k)
+        if name in (pick(rob, "cadet_envelope.states") or {}):
+            draw_cadet(ax, rob["cadet_envelope"], name, k)
+        label: str | None = "design (nodes)"
+        for ph in r.get("phases") or [r]:          # a problem posed as one phase is its own phase
+            tr = ph.get("trajectory") or {}
+            if isinstance(tr.get(name), list) and isinstance(tr.get("t"), list):
+                ax.plot(floats(tr["t"]), floats(tr[name]), "k.", ms=3, label=label)
+                label = None
+        _phases(ax, r)
+        phases = (params or {}).get("phases") or [params or {}]     # the bounds of the first phase declaring it
+        decl = next((ph for ph in phases if any(isinstance(x, dict) and x.get("name") == name
+                                                for x in ph.get("states") or [])), params or {})
+        _mark_limits(ax, *declared_bounds(decl, name))
         ax.set_xlabel(label_of("t", r))
         ax.set_ylabel(label_of(name, r))
         ax.legend(fontsize=8)
@@ -51,6 +80,7 @@ def _constraint(name: str):
         env = rob["monte_carlo"]["envelope"]
         band = env["constraints"][name]
         draw_band(ax, env["t"], band["mean"], band["std"], rob.get("k_constraints") or rob.get("k") or 3.0, color="C1")
+        _phases(ax, r)
         _mark_limits(ax, *_limits(params, "path", name))
         kept = pick(rob, f"constraints.{name}.kept_fraction")
         ax.set_xlabel(label_of("t", r))

@@ -41,12 +41,21 @@ class OcpRobustBand(ResultModel):
 
 class OcpRobustEnvelope(ResultModel):
     """The Monte Carlo's envelope: mean and standard deviation of every state and of each named path
-    constraint's value at the node times (at most 200 of them, evenly picked)."""
+    constraint's value at the node times (at most 200 of them, evenly picked), the phases one after another
+    (null where a phase has not the quantity)."""
 
     t: Series = Field(description="Node times, in the problem's time unit")
     states: dict[str, OcpRobustBand] = Field(default_factory=dict, description="state name -> mean and std")
     constraints: dict[str, OcpRobustBand] = Field(default_factory=dict,
                                                   description="named path constraint -> mean and std of its value")
+
+
+class OcpRobustCadetEnvelope(ResultModel):
+    """CADET's prediction over time: the design's mean and the propagated standard deviation of every state
+    at every node, the phases one after another (null where a phase has not the state)."""
+
+    t: Series = Field(description="Node times of every phase, in the problem's time unit")
+    states: dict[str, OcpRobustBand] = Field(default_factory=dict, description="state name -> mean and std")
 
 
 class OcpRobustSamples(ResultModel):
@@ -86,5 +95,7 @@ class OcpRobustResult(ResultModel):
                                                 "chunks, their size and who computed them")
     timing: dict[str, Any] = Field(default_factory=dict, description="Seconds: deterministic twin, robust NLP, "
                                    "Monte Carlo; iterations")
+    cadet_envelope: OcpRobustCadetEnvelope | None = Field(None, description="CADET's mean and sigma of every "
+                                                          "state over time (the design's sigmas)")
     monte_carlo: OcpRobustMonteCarlo | None = Field(None, description="The Monte Carlo's envelope and per-draw "
                                                     "values (the plots, the CSV tables)")
