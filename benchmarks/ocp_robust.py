@@ -51,7 +51,7 @@ def row(name: str, samples: int) -> dict:
     obj = summary["terminal"].get("objective", {})
     ratio = (t_det + t_rob) / t_det
     t = time.perf_counter()
-    _, block, _ = design_and_confirm(parse_problem(body), params=body, run_monte_carlo=run_monte_carlo)
+    answer, block, _ = design_and_confirm(parse_problem(body), params=body, run_monte_carlo=run_monte_carlo)
     t_job = time.perf_counter() - t
     return {"preset": name, "twin_s": t_det, "robust_s": t_rob, "ratio": ratio, "ratio_met": ratio <= TARGET_RATIO,
             "twin_iterations": det.status.iterations, "robust_iterations": rs.timing.get("robust_iterations"),
@@ -60,6 +60,8 @@ def row(name: str, samples: int) -> dict:
             "mc_samples": samples, "mc_s": t_mc,
             "mc_draws_per_s": samples / t_mc, "mc_met": t_mc <= TARGET_MC_S,
             "det_objective": det.objective, "robust_objective": rs.solution.objective,
+            # the job's answer (the docs' table of robust presets): its last round's design and constraints' k
+            "job_objective": answer.solution.objective, "job_k_constraints": block["k_constraints"] if block else None,
             "cadet_mean": rs.prediction["objective"]["mean"], "cadet_std": rs.prediction["objective"]["std"],
             "mc_mean": obj.get("mean"), "mc_std": obj.get("std")}
 

@@ -89,7 +89,37 @@ def ocp_memory(entry: dict) -> str:
     return "\n".join(rows) + "\n\n" + _caption("ocp_memory", entry)
 
 
-RENDERERS: dict[str, Callable[[dict], str]] = {"api_load": api_load, "ocp_memory": ocp_memory}
+# the robust presets' deterministic twins and units, as docs/tutorials/ocp.md names them (declared, not measured)
+# (twin, unit, format of the twin's objective, of the robust one, of the cost)
+ROBUST_TWINS = {"rocket-ascent-q-limit-robust": ("rocket-ascent-q-limit", " m", "{:.1f}", "{:.0f}", "{:.0f}"),
+                "orbit-raising-uncertain-thrust-robust": ("orbit-raising-band", "", "{:.4f}", "{:.4f}", "{:.3f}"),
+                "bryson-denham-robust": ("bryson-denham", "", "{:.4f}", "{:.4f}", "{:.3f}"),
+                "betts-shuttle-robust-ocp": ("betts-shuttle-heat-limit-ocp", " deg", "{:.4f}", "{:.4f}", "{:.3f}")}
+STATISTIC = {"mean": "mean", "mean_minus_k_sigma": "mean - {k:g} sigma", "mean_plus_k_sigma": "mean + {k:g} sigma"}
+
+
+def ocp_robust(entry: dict) -> str:
+    """``ocp_robust``: each robust preset's job answer (its last Monte Carlo round) against its deterministic
+    twin on the same grid; the cost of robustness is their difference."""
+    from solvers.ocp import PRESETS
+    rows = ["| robust preset | twin | twin objective | robust objective | cost |", "|---|---|---|---|---|"]
+    for name, (twin, unit, twin_fmt, fmt, cost_fmt) in ROBUST_TWINS.items():
+        f, body = entry["figures"][name], PRESETS[name]["params"]
+        rob, sense = body["robust"], body["objective"]["sense"]
+        k = float(rob.get("k", 3.0))
+        default = "mean_minus_k_sigma" if sense == "maximize" else "mean_plus_k_sigma"
+        how = STATISTIC[rob.get("objective", default)].format(k=k)
+        k_c = f["job_k_constraints"]
+        if k_c is not None and k_c > k:
+            how += f"; limit k raised to {k_c:.3f}"
+        cost = (f["det_objective"] - f["job_objective"]) * (1 if sense == "maximize" else -1)   # what robustness gives up
+        rows.append(f"| `{name}` | `{twin}` | {twin_fmt.format(f['det_objective'])}{unit} | "
+                    f"{fmt.format(f['job_objective'])}{unit} ({how}) | {cost_fmt.format(cost)}{unit} |")
+    return "\n".join(rows) + "\n\n" + _caption(
+        "ocp_robust", entry, ", each robust job as the service runs it, its Monte Carlo rounds included")
+
+
+RENDERERS: dict[str, Callable[[dict], str]] = {"api_load": api_load, "ocp_memory": ocp_memory, "ocp_robust": ocp_robust}
 
 
 def latest() -> dict:

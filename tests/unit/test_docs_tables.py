@@ -18,6 +18,11 @@ def test_the_readme_renders_its_measured_tables():
     assert {"api_load", "ocp_memory"} <= set(names), names
 
 
+def test_the_ocp_tutorial_renders_its_robust_presets():
+    names = [name for name, _ in tables((ROOT / "docs" / "tutorials" / "ocp.md").read_text())]
+    assert names == ["ocp_robust"], names
+
+
 @pytest.mark.parametrize("page", PAGES, ids=[p.name for p in PAGES])
 def test_every_table_between_markers_is_latest_json_rendered(page):
     results = latest()
