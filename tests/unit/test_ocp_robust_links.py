@@ -66,6 +66,19 @@ def test_links_of_renamed_and_scaled_states_carry_the_one_phase_covariance(twins
         b1["constraints"]["v_max"]["kept_fraction"], abs=1.5 / 2000)
 
 
+def test_an_expression_map_carries_the_covariance_by_its_jacobian_and_the_draws_by_newton(twins):
+    """V**3 = 8 v**3 is V = 2 v for real numbers: h_y = 3 V**2, J = 24 v**2 / (3 V**2) = 2 at the design, and each
+    draw's V solved by Newton; the design, CADET and the same draws' Monte Carlo are the affine link's."""
+    _, (two, b2, s2) = twins
+    body = copy.deepcopy(RENAMED)
+    body["links"][1]["expr"] = 'initial(V, "b")**3 - 8*final(v, "a")**3'
+    rs, block, summary = _confirmed(body, 4)
+    assert rs.solution.objective == pytest.approx(two.solution.objective, rel=1e-9)
+    assert block["objective"]["cadet_std"] == pytest.approx(b2["objective"]["cadet_std"], rel=1e-9)
+    assert summary["failed_samples"] == 0
+    assert summary["terminal"]["objective"]["mean"] == pytest.approx(s2["terminal"]["objective"]["mean"], rel=1e-9)
+
+
 @pytest.mark.parametrize("link, says", [
     ({"expr": 'initial(X, "b") - final(x, "a")', "lower": -0.1, "upper": 0.1}, "inequality"),
     ({"expr": 'initial(X, "b") + initial(V, "b") - final(x, "a")', "lower": 0.0, "upper": 0.0}, "one equation"),
