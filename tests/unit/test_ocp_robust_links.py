@@ -150,6 +150,16 @@ def test_the_plots_of_several_phases_draw_every_phases_states_with_cadets_band()
         up, lo = (np.asarray(lines[g].get_ydata(), float) for g in ("cadet-upper", "cadet-lower"))
         std = np.array([np.nan if v is None else v for v in cadet["states"][x]["std"]])
         np.testing.assert_allclose((up - lo) / (2 * k), std, rtol=1e-12, equal_nan=True)
+    # the speed limit (v in a, V/2 in b): CADET's sigma is the closed form sqrt(SV^2 + (SW t)^2) in both phases
+    # (RK4 exact on the polynomial), drawn at mean +- k_c sigma beside the Monte Carlo's band
+    fig = Figure()
+    by_name["mc-constraint-v_max"].draw(fig, result, params)
+    lines = {ln.get_gid(): ln for ln in fig.axes[0].lines if ln.get_gid()}
+    t, kc = np.asarray(cadet["t"]), rob["k_constraints"]
+    std = np.asarray(cadet["constraints"]["v_max"]["std"], float)
+    np.testing.assert_allclose(std, np.sqrt(0.05 ** 2 + (0.2 * t) ** 2), rtol=1e-12)
+    up, lo = (np.asarray(lines[g].get_ydata(), float) for g in ("cadet-upper", "cadet-lower"))
+    np.testing.assert_allclose((up - lo) / (2 * kc), std, rtol=1e-12)
     # linear dynamics: at the end, the Monte Carlo's sigma of V is CADET's within 4 standard errors (2000 draws)
     sd = cadet["states"]["V"]["std"][-1]
     assert env["states"]["V"]["std"][-1] == pytest.approx(sd, abs=4 * sd / math.sqrt(2 * 2000))

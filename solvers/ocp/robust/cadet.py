@@ -215,6 +215,28 @@ class RobustFunctions:
         return CadetSystem.theta(c[list(self.lay.s_index)], np.diag(np.asarray(sigma_s, float) ** 2))
 
 
+def path_bands(R, design) -> dict[str, dict[str, list]]:
+    """CADET's mean and standard deviation of each named robust path constraint at every node of ``design``
+    (``R`` a :class:`solvers.ocp.robust.nlp.RobustNLP`), on :func:`state_bands`' time axis (None where a
+    phase has not the constraint): the augmented path rows ``mu +- k_c sigma`` evaluated at ``k_c = 1``."""
+    named = [n for n in R.rob.constraints if any(n in (c.name for c in P.php.phase.path) for P in R.phases)]
+    out: dict[str, dict[str, list]] = {n: {"mean": [], "std": []} for n in named}
+    for ip, (P, d) in enumerate(zip(R.phases, design.phases)):
+        N = d.Z.shape[1]
+        c1 = R.constants(R.rob.k, 1.0, R.eps_default(ip) * 0.0)
+        Pv = np.asarray(P.rf.fns.path.map(N)(d.t_nodes[None, :], d.Z, P.det.node_controls(d.U), d.theta, c1,
+                                              d.t0, d.tf), float)
+        row, rows = 0, {}
+        for cn, robust in zip(P.php.phase.path, P.lay.robust_path):
+            rows[cn.name] = row if robust else None
+            row += 2 if robust else 1
+        for n in named:
+            r = rows.get(n)
+            out[n]["mean"] += [None] * N if r is None else [float(v) for v in 0.5 * (Pv[r] + Pv[r + 1])]
+            out[n]["std"] += [None] * N if r is None else [float(v) for v in 0.5 * (Pv[r] - Pv[r + 1])]
+    return out
+
+
 def state_bands(problem, design, sigma_s: np.ndarray) -> dict:
     """CADET's band of a design (``robust.cadet_envelope``, drawn beside the Monte Carlo's): the mean and the
     standard deviation ``sqrt(diag(S Sigma_w S^T))`` of every state at every node, the phases one after

@@ -25,7 +25,7 @@ from solvers.common import Outcome, ProgressFn, StopFn
 from solvers.progress import Progress
 from solvers.ocp.check import AGREEMENT_TOLERANCE, check_phase
 from solvers.ocp.phase import positive_scale
-from solvers.ocp.robust.cadet import state_bands
+from solvers.ocp.robust.cadet import path_bands, state_bands
 from solvers.ocp.robust.montecarlo import monte_carlo_spec
 from solvers.ocp.robust.nlp import Design, RobustNLP
 from solvers.ocp.solution import OcpSolution, solution_of
@@ -315,7 +315,8 @@ def confirm(rs: RobustSolution, summary: dict, rob) -> dict:
             "constraints": cons, "confirmed": bool(confirmed),
             "deterministic_objective": det, "robust_objective": rs.solution.objective,
             "cost_of_robustness": rs.solution.objective - det,
-            "cadet_envelope": state_bands(rs.built.R.problem, rs.design, rs.built.R.sigma_s) if rs.built else None,
+            "cadet_envelope": {**state_bands(rs.built.R.problem, rs.design, rs.built.R.sigma_s),
+                               "constraints": path_bands(rs.built.R, rs.design)} if rs.built else None,
             "timing": rs.timing}
 
 

@@ -38,9 +38,10 @@ def _phases(ax, r) -> None:
                         fontsize=7, ha="left", va="top", color="0.4")
 
 
-def draw_cadet(ax, cadet: dict, name: str, k: float) -> None:
-    """CADET's ``mean +- k sigma`` of state ``name`` (dashed, beside the Monte Carlo's band)."""
-    t, band = floats(cadet["t"]), cadet["states"][name]
+def draw_cadet(ax, cadet: dict, name: str, k: float, group: str = "states") -> None:
+    """CADET's ``mean +- k sigma`` of ``name`` (a state, or a named path constraint with ``group``
+    "constraints"; dashed, beside the Monte Carlo's band)."""
+    t, band = floats(cadet["t"]), cadet[group][name]
     mean, std = floats(band["mean"]), floats(band["std"])
     ax.plot(t, mean + k * std, color="C2", ls="--", lw=1.0, label=f"CADET mean +- {k:g} sigma", gid="cadet-upper")
     ax.plot(t, mean - k * std, color="C2", ls="--", lw=1.0, gid="cadet-lower")
@@ -79,7 +80,10 @@ def _constraint(name: str):
         rob = r["robust"]
         env = rob["monte_carlo"]["envelope"]
         band = env["constraints"][name]
-        draw_band(ax, env["t"], band["mean"], band["std"], rob.get("k_constraints") or rob.get("k") or 3.0, color="C1")
+        k = rob.get("k_constraints") or rob.get("k") or 3.0
+        draw_band(ax, env["t"], band["mean"], band["std"], k, color="C1")
+        if name in (pick(rob, "cadet_envelope.constraints") or {}):
+            draw_cadet(ax, rob["cadet_envelope"], name, k, "constraints")
         _phases(ax, r)
         _mark_limits(ax, *_limits(params, "path", name))
         kept = pick(rob, f"constraints.{name}.kept_fraction")

@@ -52,10 +52,13 @@ class OcpRobustEnvelope(ResultModel):
 
 class OcpRobustCadetEnvelope(ResultModel):
     """CADET's prediction over time: the design's mean and the propagated standard deviation of every state
-    at every node, the phases one after another (null where a phase has not the state)."""
+    and of each named path constraint at every node, the phases one after another (null where a phase has
+    not the quantity)."""
 
     t: Series = Field(description="Node times of every phase, in the problem's time unit")
     states: dict[str, OcpRobustBand] = Field(default_factory=dict, description="state name -> mean and std")
+    constraints: dict[str, OcpRobustBand] = Field(default_factory=dict,
+                                                  description="named path constraint -> mean and std of its value")
 
 
 class OcpRobustSamples(ResultModel):
