@@ -119,7 +119,25 @@ def ocp_robust(entry: dict) -> str:
         "ocp_robust", entry, ", each robust job as the service runs it, its Monte Carlo rounds included")
 
 
-RENDERERS: dict[str, Callable[[dict], str]] = {"api_load": api_load, "ocp_memory": ocp_memory, "ocp_robust": ocp_robust}
+def compiles(entry: dict) -> str:
+    """``compiles``: each run of the tutorials on a fresh service (in the order run), its compiles and their
+    CPU, and the time to the answers against ``TRAJLAB_JIT=off``."""
+    f = entry["figures"]
+    rows = ["| `TRAJLAB_JIT` | run | answers s | compiles | most at once | compile CPU s | compile cores |",
+            "|---|---|---|---|---|---|---|"]
+    for mode in ("off", "background"):
+        for i, r in enumerate(f.get(mode, {}).get("runs", []), 1):
+            pending = " (more waiting when stopped)" if r["compiling_when_stopped"] else ""
+            rows.append(_row([f"`{mode}`", str(i), f"{r['answers_s']:.1f}", f"{r['compiles']}{pending}",
+                              str(r["most_at_once"]), f"{r['cpu_s']:.1f}", f"{r['compile_cores']:.2f}"]))
+    how = ", each mode twice (off, background, background, off)" if f.get("abba") else ""
+    how += ", the robust tutorial at 2000 samples (--quick)" if f.get("quick") else ""
+    ratio = f"; answers background / off: {f['answers_ratio']:.2f}" if "answers_ratio" in f else ""
+    return "\n".join(rows) + "\n\n" + _caption("compiles", entry, how + ratio)
+
+
+RENDERERS: dict[str, Callable[[dict], str]] = {"api_load": api_load, "compiles": compiles, "ocp_memory": ocp_memory,
+                                                 "ocp_robust": ocp_robust}
 
 
 def latest() -> dict:
