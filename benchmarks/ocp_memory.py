@@ -56,6 +56,34 @@ def phased(k: int, n: int, m: int, intervals: int) -> dict:
     return {"phases": phases, "objective": {"sense": "minimize", "integrand": _integrand(n, m)}}
 
 
+def robust_two_phase(intervals: int) -> dict:
+    """A robust design of two phases (tests/unit/test_ocp_robust_phases.py's twin pair on ``intervals``
+    per phase): x'' = u + w, y' = -y + b, w and b uncertain and x(0), v(0) too (4 draws), the speed limit
+    held at mean + 2 sigma, 2000 Monte Carlo draws."""
+    dyn = {"x": "v", "v": "u + w", "y": "-y + b"}
+    u = {"name": "u", "lower": -20.0, "upper": 20.0}
+    v_max = {"name": "v_max", "expr": "v", "upper": 1.6}
+    tr = {"method": "multiple_shooting", "intervals": intervals, "control": "constant", "substeps": 2}
+    first = [{"name": "x", "initial": 0.0, "scale": 1.0}, {"name": "v", "initial": 0.0, "scale": 1.0},
+             {"name": "y", "initial": 0.0, "scale": 1.0}]
+    last = [{"name": "x", "final": 1.0, "scale": 1.0}, {"name": "v", "final": 0.0, "scale": 1.0},
+            {"name": "y", "scale": 1.0}]
+    return {"constants": {"b": 1.0, "w": 0.0},
+            "phases": [{"name": name, "states": states, "controls": [u], "time": {"initial": t0, "final": t0 + 0.5},
+                        "dynamics": dyn, "path": [v_max], "transcription": dict(tr)}
+                       for name, states, t0 in (("a", first, 0.0), ("b", last, 0.5))],
+            "objective": {"sense": "minimize", "expr": 'final(y, "b")', "integrand": "u**2"},
+            "uncertainty": {"parameters": {"w": {"distribution": "normal", "sigma": 0.2},
+                                           "b": {"distribution": "normal", "sigma": 0.2}},
+                            "initial": {"x": {"sigma": 0.1}, "v": {"sigma": 0.05}}},
+            "robust": {"k": 2.0, "constraints": ["v_max"], "monte_carlo": {"samples": 2000, "rounds": 2}}}
+
+
+def preset(name: str) -> dict:
+    from app.kinds import PRESETS
+    return PRESETS[name].params
+
+
 # What each case is, for the README's table.
 SIZES = {
     "narrow-long": "4 states, 2 controls, 1,000 intervals",
@@ -64,6 +92,8 @@ SIZES = {
     "wide-lgl": "20 states, 8 controls, 150 LGL intervals of 5 nodes",
     "three-phase": "3 phases of 6 states, 2 controls, 400 intervals",
     "three-phase-wide": "3 phases of 20 states, 8 controls, 100 intervals",
+    "robust-shuttle": "the betts-shuttle-robust-ocp preset (6 states, 2 controls, 2 draws, 100 intervals, 10,000 MC)",
+    "robust-two-phase": "robust, 2 phases of 3 states, 1 control, 4 draws, 100 intervals each",
 }
 
 CASES = {
@@ -73,6 +103,8 @@ CASES = {
     "wide-lgl": lambda: single(20, 8, 150, method="lgl", nodes=5),
     "three-phase": lambda: phased(3, 6, 2, 400),
     "three-phase-wide": lambda: phased(3, 20, 8, 100),
+    "robust-shuttle": lambda: preset("betts-shuttle-robust-ocp"),
+    "robust-two-phase": lambda: robust_two_phase(100),
 }
 
 

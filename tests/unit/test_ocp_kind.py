@@ -258,7 +258,8 @@ def test_cost_and_memory_count_the_check_solve_on_the_finer_mesh():
     multiple-shooting controls, 2 otherwise: solvers.ocp.estimate.parts_of), an NLP s times the answer's:
     the cost is (1 + s) solves of the answer's size, the memory that of the check's NLP, and a problem
     whose own solve is under the heavy threshold goes to the heavy queue once its check is counted."""
-    from app.kinds.ocp.footprint import MEMORY, check_parts
+    from app.kinds.ocp.footprint import MEMORY
+    from app.kinds.ocp.size import check_parts
     from solvers.ocp.estimate import parts_of
     from solvers.ocp.problem import Transcription
 

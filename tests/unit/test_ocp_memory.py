@@ -3,19 +3,54 @@ width, the check solve's finer mesh), held within 2x of the peak measured in a c
 (``benchmarks/ocp_memory.py``) for a wide single-phase and a multi-phase case."""
 from __future__ import annotations
 
+import copy
+
 import pytest
 
+from app.kinds import PRESETS
+from app.kinds.ocp.footprint import FLOOR_MB, candidates_mb
+from app.kinds.ocp.kind import cost
+from app.kinds.ocp.size import phase_sizes
 from app.service.job_memory import measured_mb
 from benchmarks.ocp_memory import measure, phased, single
 
 
-def test_every_phase_counts():
-    one = measured_mb("ocp", single(4, 2, 300))
-    three = measured_mb("ocp", phased(3, 4, 2, 300))
-    assert one is not None and three is not None
-    double = measured_mb("ocp", single(4, 2, 600))
-    assert double is not None
-    assert three - one == pytest.approx(2 * (double - one), rel=1e-9)   # each phase adds its own NLP
+def test_every_phase_counts_and_the_checks_hold_one_phase_at_a_time():
+    """Each phase adds its own NLP; the minimum-principle check's candidates are one phase's (the largest)."""
+    one, three = single(4, 2, 300), phased(3, 4, 2, 300)
+    one_mb, three_mb = measured_mb("ocp", one), measured_mb("ocp", three)
+    assert one_mb is not None and three_mb is not None
+    (ph,) = phase_sizes(one)
+    nlp = one_mb - FLOOR_MB - candidates_mb(ph)
+    assert nlp > 0
+    assert three_mb - one_mb == pytest.approx(2 * nlp, rel=1e-9)
+
+
+def test_the_estimate_grows_with_the_expressions_at_equal_grid():
+    """wider (50 x 20) > wide (30 x 10) on the same 150 intervals, and the same problem with a longer
+    integrand (same states, controls and grid) is larger too: the expressions' parse-tree nodes count."""
+    wide, wider = measured_mb("ocp", single(30, 10, 150)), measured_mb("ocp", single(50, 20, 150))
+    assert wide is not None and wider is not None and wider > wide
+    plain = single(4, 2, 300)
+    longer = {**plain, "objective": {**plain["objective"],
+                                     "integrand": plain["objective"]["integrand"] + " + 0.1*sin(x0)*cos(u1)" * 20}}
+    (p,), (q,) = phase_sizes(plain), phase_sizes(longer)
+    assert q.nodes > p.nodes + 20 * 10
+    plain_mb, longer_mb = measured_mb("ocp", plain), measured_mb("ocp", longer)
+    assert plain_mb is not None and longer_mb is not None and longer_mb > plain_mb
+
+
+def test_the_estimate_grows_with_the_robust_sensitivities():
+    """A robust design adds CADET's sensitivity states (states x (states + draws) per step): the robust
+    shuttle is larger than its deterministic twin, and one more uncertain quantity makes it larger still;
+    the cost counts the same sizes."""
+    twin, robust = PRESETS["betts-shuttle-heat-limit-ocp"].params, PRESETS["betts-shuttle-robust-ocp"].params
+    more = copy.deepcopy(robust)
+    more["uncertainty"]["initial"] = {"h": {"sigma": 100.0}}
+    twin_mb, robust_mb, more_mb = (measured_mb("ocp", p) for p in (twin, robust, more))
+    assert twin_mb is not None and robust_mb is not None and more_mb is not None
+    assert twin_mb < robust_mb < more_mb
+    assert cost(twin) < cost(robust) < cost(more)
 
 
 @pytest.mark.slow

@@ -4,43 +4,60 @@ the console's compare plot."""
 from __future__ import annotations
 
 from app.kinds.base import CompareSeries, MemoryModel
+from app.kinds.ocp.size import PhaseSize, draws, phase_sizes
 from app.results.tables import columns, columns_at
 
 
-def _size(params: dict) -> float:
-    """RK4 steps (or LGL nodes) x (states + controls) of the largest NLP the job builds, summed over its
-    phases: the answer's check on its mesh with every interval cut in s parts (:func:`check_parts`)."""
-    phases = [p for p in params.get("phases") or [] if isinstance(p, dict)] or [params]
-    return sum(_phase_size(p) for p in phases)
+# Calibration (benchmarks/ocp_memory.py and one-off runs of the same child, peak resident MB on a quiet
+# 2-core x86_64; linear-quadratic problems of n states, m controls, multiple shooting with 2 RK4 substeps
+# unless said): narrow-long 4x2 on 1000 intervals 506, wide 30x10 on 200 1096, wider 50x20 on 150 2640,
+# wide-lgl 20x8 on 150 LGL intervals of 5 nodes 571, three-phase 3 x (6x2 on 400) 390, three-phase-wide
+# 3 x (20x8 on 100) 547, betts-shuttle-ocp 215, 4x2 on 300 313 and the same with 1700 more parse-tree nodes
+# in its dynamics (25 sin*cos terms per state) 335; robust: betts-shuttle-robust-ocp 349 (10,000 or 2000 Monte
+# Carlo draws alike), a two-phase 3x1 robust problem of 4 draws on 100 + 100 intervals 232 (2000 draws) and
+# 233 (10,000 draws).  Fitted (max |log(estimate/peak)| 0.10 over the deterministic nine):
+FLOOR_MB = 205.0            # the pool process, CasADi, IPOPT and a tiny problem
+PER_GRID_WIDTH_MB = 2.35e-3  # per step of the check's NLP x (states + controls): variables, Jacobian, factors
+PER_GRID_NODE_MB = 7.2e-6   # per step x parse-tree node: the SX graph evaluated at every step (22 MB / 3.06M)
+# The minimum-principle check's candidate controls at the dense re-flight's samples (solvers.ocp.
+# minimum_principle: controls x (41 per control + 2^controls corners up to 6 controls) x 20 samples per
+# interval of the check's mesh, doubles), held a phase at a time and about twice over (the candidate sets
+# and their concatenation): what made `wider` (20 controls) 2.6 GB, not its 70-term integrand (7 MB).
+CANDIDATE_COPIES = 2.15
+SAMPLES_PER_INTERVAL = 20   # solvers.ocp.verify.SAMPLES_PER_INTERVAL
+# A robust design adds CADET's sensitivity states: their rows (states x (states + draws) per step) and their
+# graph, the phase's expressions differentiated in (states + draws) directions at every step.  Two
+# robust cases fit both exactly (shuttle 130 MB over its twin, the two-phase problem 15 MB); the Monte
+# Carlo runs in chunks and its draws added nothing measurable (10,000 against 2000 on both).
+PER_GRID_SENSITIVITY_MB = 2.5e-4
+PER_GRID_NODE_DIRECTION_MB = 7.0e-5
 
 
-def _phase_size(params: dict) -> float:
-    tr = params.get("transcription") or {}
-    if tr.get("method", "multiple_shooting") == "multiple_shooting":
-        steps = float(tr.get("substeps", 2))
-    else:
-        steps = float(tr.get("nodes", 4))
-    width = float(len(params.get("states") or []) + len(params.get("controls") or []))
-    intervals = len(tr["boundaries"]) - 1 if tr.get("boundaries") else tr.get("intervals", 50)
-    return float(intervals) * steps * width * check_parts(tr)
+def candidates_mb(ph: PhaseSize) -> float:
+    """MB of one phase's minimum-principle candidates (see CANDIDATE_COPIES)."""
+    corners = 2 ** ph.controls if ph.controls <= 6 else 0
+    samples = ph.intervals * ph.parts * SAMPLES_PER_INTERVAL
+    return CANDIDATE_COPIES * ph.controls * (41 * ph.controls + corners) * samples * 8 / 1e6
 
 
-def check_parts(transcription: dict) -> int:
-    """The parts each interval is cut into for an answer's check solve (``solvers.ocp.estimate.parts_of``,
-    read from the request so the quota needs no solver import): 3 for multiple shooting's linear controls,
-    2 otherwise.  The check's NLP is that many times the answer's, and warm-started it takes about as many
-    iterations (the golden accuracy cases: 7-16 against 8-16), so it costs about s answers."""
-    shooting = transcription.get("method", "multiple_shooting") == "multiple_shooting"
-    return 3 if shooting and transcription.get("control", "linear") == "linear" else 2
+def _growth_mb(params: dict) -> float:
+    """MB past the floor: the NLPs of every phase (they are one NLP), their expression graphs, the robust
+    sensitivities, and the largest phase's minimum-principle candidates (the checks run a phase at a time)."""
+    phases = phase_sizes(params)
+    if not phases:
+        return 0.0
+    w = draws(params)
+    nlp = sum(ph.grid * (PER_GRID_WIDTH_MB * ph.width + PER_GRID_NODE_MB * ph.nodes
+                         + PER_GRID_SENSITIVITY_MB * ph.sensitivities
+                         + (PER_GRID_NODE_DIRECTION_MB * ph.nodes * (ph.states + w) if w else 0.0))
+              for ph in phases)
+    return nlp + max(candidates_mb(ph) for ph in phases)
 
-# Measured (README "Limits and data"; benchmarks/ocp_memory.py): 215 MB resident in a fresh pool process at
-# the betts-shuttle-ocp preset's size (100 intervals x 2 steps x 8 states and controls x 3 check parts);
-# past it 0.015 MB per step x (states + controls) x check part, fitted to LQ problems of 4x2 states and
-# controls on 300 and 1000 intervals (320, 539 MB) and 20x8 on 100 (498 MB): the answer, its check on the
-# finer mesh, the re-flight and the optimality checks at its samples.
-MEMORY = MemoryModel(floor_mb=215.0, size=_size, floor_size=100.0 * 2 * 8 * 3, per_unit_mb=0.015,
-                     grows_with="transcription.intervals x steps per interval x (states + controls) x the check's "
-                                "parts (3 for multiple shooting's linear controls, 2 otherwise), summed over the phases")
+
+MEMORY = MemoryModel(floor_mb=FLOOR_MB, size=_growth_mb, floor_size=0.0, per_unit_mb=1.0,
+                     grows_with="the steps of the check's mesh (intervals x substeps or LGL nodes x its 2 or 3 "
+                                "parts) x (states + controls and the expressions' parse-tree nodes), a robust "
+                                "design's sensitivities, and controls^2 x intervals (the minimum-principle check)")
 
 
 def trajectory_table(result: dict) -> dict[str, list] | None:

@@ -17,7 +17,7 @@ from app.kinds.base import (
     Preset,
     RunOutcome,
 )
-from app.kinds.ocp.footprint import MEMORY, check_parts, compare_series, trajectory_table
+from app.kinds.ocp.footprint import MEMORY, compare_series, trajectory_table
 from app.kinds.ocp.headlines import headlines
 from app.kinds.ocp.params import OcpParams
 from app.kinds.ocp.plots import plots as ocp_plots
@@ -25,6 +25,7 @@ from app.kinds.ocp.result import OcpResult
 from app.kinds.ocp.robust.plots import robust_plots
 from app.kinds.ocp.robust.trade import ROBUST_TABLES, robust_key_numbers
 from app.kinds.ocp.search import run_search, solve_one
+from app.kinds.ocp.size import PhaseSize, phase_bodies, phase_sizes
 from app.kinds.ocp.trade import swept_label, trade_outputs
 from app.kinds.ocp.warm_start import WARM_START_FIELD, load_warm_start, misfit
 from app.results.tables import columns_at
@@ -100,51 +101,34 @@ def key_numbers(result: dict) -> dict:
 
 # One work unit is about one RK4 step of one reentry shooting interval (app.service.quota: the Betts
 # reentry at 100 intervals x 2 substeps costs 200).  That problem written as an ocp (the betts-shuttle-ocp preset: 6 states,
-# 2 controls, ~400 characters of expressions) costs the same per solve: the NLP grows with the integration
+# 2 controls, 345 parse-tree nodes of expressions) costs the same per solve: the NLP grows with the integration
 # steps and the states and controls, each step's cost with the size of the expressions.  An ocp answer is
 # two solves, its own and its check on the finer nested mesh (solvers.ocp.estimate), which the reentry
-# kind does not make: ``cost`` counts both.
+# kind does not make: ``cost`` counts both.  The sizes are the memory model's (app.kinds.ocp.size): the
+# same parse-tree nodes, and a robust design's sensitivity states counted in its width.
 REFERENCE_WIDTH = 8          # states + controls of the reference problem
-REFERENCE_CHARS = 400.0      # characters of its dynamics, expressions, path constraints and integrand
-MIN_CHARS = 100.0            # a tiny problem still costs its NLP's overhead
-
-
-def _text_size(params: dict) -> int:
-    size = sum(len(str(v)) for group in ("expressions", "dynamics") for v in (params.get(group) or {}).values())
-    size += sum(len(str(c.get("expr", ""))) for c in (params.get("path") or []) if isinstance(c, dict))
-    return size + len(str((params.get("objective") or {}).get("integrand") or ""))
-
-
-def _phase_bodies(params: dict) -> list[dict]:
-    """Each phase as a single-phase body (its share of the integrand, the problem's accuracy); a problem
-    posed as one phase is its own."""
-    if not params.get("phases"):
-        return [params]
-    integrand = (params.get("objective") or {}).get("integrand")
-    return [{**ph, "objective": {"integrand": integrand.get(ph.get("name")) if isinstance(integrand, dict)
-                                 else integrand}, "accuracy": params.get("accuracy")}
-            for ph in params["phases"] if isinstance(ph, dict)]
+REFERENCE_NODES = 345.0      # parse-tree nodes of its dynamics, expressions, path constraints and integrand
+MIN_NODES = 86.0             # a tiny problem still costs its NLP's overhead (a quarter of the reference)
 
 
 def cost(params: dict) -> float:
-    """Work units: the sum over the phases of intervals x steps per interval x (states + controls) x
-    expression size, scaled to the reference above; times (1 + s) for the check solve every answer gets on
-    its mesh with every interval cut in s parts (:func:`check_parts`); times the refinement rounds when
-    ``accuracy`` asks for mesh refinement (each round is an answer with its check); times
-    ``search.starts`` (each start a solve)."""
+    """Work units: the sum over the phases of intervals x steps per interval x (states + controls, and a
+    robust design's sensitivity states) x expression size (parse-tree nodes), scaled to the reference above;
+    times (1 + s) for the check solve every answer gets on its mesh with every interval cut in s parts
+    (:func:`app.kinds.ocp.size.check_parts`); times the refinement rounds when ``accuracy`` asks for mesh
+    refinement (each round is an answer with its check); times ``search.starts`` (each start a solve)."""
     starts = int(((params.get("search") or {}).get("starts")) or 1)
-    return starts * sum(_phase_cost(body) for body in _phase_bodies(params))
+    bodies = phase_bodies(params)
+    return starts * sum(_phase_cost(body, ph) for body, ph in zip(bodies, phase_sizes(params), strict=True))
 
 
-def _phase_cost(params: dict) -> float:
-    tr = params.get("transcription") or {}
-    steps = float(tr.get("substeps", 2)) if tr.get("method", "multiple_shooting") == "multiple_shooting" \
-        else float(tr.get("nodes", 4)) - 1.0
-    width = float(len(params.get("states") or []) + len(params.get("controls") or [])) / REFERENCE_WIDTH
-    size = max(MIN_CHARS, float(_text_size(params))) / REFERENCE_CHARS
-    refine = 1.0 + (float(tr.get("max_refinements", 8)) if params.get("accuracy") else 0.0)
-    intervals = len(tr["boundaries"]) - 1 if tr.get("boundaries") else tr.get("intervals", 50)
-    return float(intervals) * steps * width * size * refine * (1.0 + check_parts(tr))
+def _phase_cost(body: dict, ph: PhaseSize) -> float:
+    tr = body.get("transcription") or {}
+    steps = ph.steps if ph.shooting else ph.steps - 1.0
+    width = float(ph.width + ph.sensitivities) / REFERENCE_WIDTH
+    size = max(MIN_NODES, float(ph.nodes)) / REFERENCE_NODES
+    refine = 1.0 + (float(tr.get("max_refinements", 8)) if body.get("accuracy") else 0.0)
+    return float(ph.intervals) * steps * width * size * refine * (1.0 + ph.parts)
 
 
 SPEC = KindSpec(
