@@ -15,7 +15,8 @@ from app.results.tables import columns, columns_at
 # 3 x (20x8 on 100) 547, betts-shuttle-ocp 215, 4x2 on 300 313 and the same with 1700 more parse-tree nodes
 # in its dynamics (25 sin*cos terms per state) 335; robust: betts-shuttle-robust-ocp 349 (10,000 or 2000 Monte
 # Carlo draws alike), a two-phase 3x1 robust problem of 4 draws on 100 + 100 intervals 232 (2000 draws) and
-# 233 (10,000 draws).  Fitted (max |log(estimate/peak)| 0.10 over the deterministic nine):
+# 233 (10,000 draws).  Fitted (max |log(estimate/peak)| 0.10 over the deterministic nine); not fitted, the
+# presets free-flying-robot (6 controls: 412 MB measured, 347 estimated) and rayleigh-mixed-constraint (253, 237):
 FLOOR_MB = 205.0            # the pool process, CasADi, IPOPT and a tiny problem
 PER_GRID_WIDTH_MB = 2.35e-3  # per step of the check's NLP x (states + controls): variables, Jacobian, factors
 PER_GRID_NODE_MB = 7.2e-6   # per step x parse-tree node: the SX graph evaluated at every step (22 MB / 3.06M)
