@@ -4,61 +4,76 @@ the console's compare plot."""
 from __future__ import annotations
 
 from app.kinds.base import CompareSeries, MemoryModel
-from app.kinds.ocp.size import PhaseSize, draws, phase_sizes
+from app.kinds.ocp.size import PhaseSize, phase_sizes
 from app.results.tables import columns, columns_at
 
 
-# Calibration (benchmarks/ocp_memory.py and one-off runs of the same child, peak resident MB on a quiet
-# 2-core x86_64; linear-quadratic problems of n states, m controls, multiple shooting with 2 RK4 substeps
-# unless said): narrow-long 4x2 on 1000 intervals 506, wide 30x10 on 200 1096, wider 50x20 on 150 2640,
-# wide-lgl 20x8 on 150 LGL intervals of 5 nodes 571, three-phase 3 x (6x2 on 400) 390, three-phase-wide
-# 3 x (20x8 on 100) 547, betts-shuttle-ocp 215, 4x2 on 300 313 and the same with 1700 more parse-tree nodes
-# in its dynamics (25 sin*cos terms per state) 335; robust: betts-shuttle-robust-ocp 349 (10,000 or 2000 Monte
-# Carlo draws alike), a two-phase 3x1 robust problem of 4 draws on 100 + 100 intervals 232 (2000 draws) and
-# 233 (10,000 draws).  Fitted (max |log(estimate/peak)| 0.10 over the deterministic nine); not fitted, the
-# presets free-flying-robot (6 controls: 412 MB measured, 347 estimated) and rayleigh-mixed-constraint (253, 237):
-FLOOR_MB = 205.0            # the pool process, CasADi, IPOPT and a tiny problem
-PER_GRID_WIDTH_MB = 2.35e-3  # per step of the check's NLP x (states + controls): variables, Jacobian, factors
-PER_GRID_NODE_MB = 7.2e-6   # per step x parse-tree node: the SX graph evaluated at every step (22 MB / 3.06M)
-# The minimum-principle check's candidate controls at the dense re-flight's samples (solvers.ocp.
-# minimum_principle: controls x (41 per control + 2^controls corners up to 6 controls) x 20 samples per
-# interval of the check's mesh, doubles), held a phase at a time and about twice over (the candidate sets
-# and their concatenation): what made `wider` (20 controls) 2.6 GB, not its 70-term integrand (7 MB).
-CANDIDATE_COPIES = 2.15
-SAMPLES_PER_INTERVAL = 20   # solvers.ocp.verify.SAMPLES_PER_INTERVAL
-# A robust design adds CADET's sensitivity states: their rows (states x (states + draws) per step) and their
-# graph, the phase's expressions differentiated in (states + draws) directions at every step.  Two
-# robust cases fit both exactly (shuttle 130 MB over its twin, the two-phase problem 15 MB); the Monte
-# Carlo runs in chunks and its draws added nothing measurable (10,000 against 2000 on both).
-PER_GRID_SENSITIVITY_MB = 2.5e-4
-PER_GRID_NODE_DIRECTION_MB = 7.0e-5
+# Calibration: peak resident MB (VmHWM) of the job in a fresh process (benchmarks/ocp_memory.py's child) on a
+# 2-core x86_64, 40 runs: every ocp preset (benchmarks/ocp_preset_memory.py: 141-415 MB), the LQ cases of
+# benchmarks/ocp_memory.py (narrow-long 506, wide 1096, wider 2640, wide-lgl 571, three-phase 390,
+# three-phase-wide 547, robust-two-phase 232) and 4x2 on 300 intervals, 312, and the same with 1700 more
+# parse-tree nodes in its dynamics (25 sin*cos terms per state), 339.  Least squares of estimate/peak - 1 with
+# every coefficient >= 0; estimate/peak 0.65 (tumor-antiangiogenesis) to 1.14 over all 40.  What the fit says:
+# - a small problem's peak is the dense checks', not its NLP's: the minimum-principle check evaluates H at
+#   candidate controls x re-flight samples, BLOCK numbers at a time, about 62 bytes a number (CasADi's
+#   inputs, map and outputs; 175-260 MB on tumor-antiangiogenesis, freed after).  betts-shuttle-ocp peaks at
+#   341 MB there (not the 215 of an older measurement), and its robust twin at 349: the robust design's own
+#   growth (CADET's sensitivity states, 28,800 step-states) is the ~25 MB its coefficient gives, no more.
+# - Monte Carlo draws add nothing measurable: they run in chunks (10,000 against 2000 draws, 349 and 349 on
+#   the shuttle, 233 and 232 on the two-phase case).
+FLOOR_MB = 127.6             # the process, CasADi, IPOPT and a tiny problem (the smallest presets: 141-144)
+PER_GRID_WIDTH_MB = 1.60e-3  # per step of the check's NLP x (states + controls): variables, Jacobian, factors
+PER_GRID_NODE_MB = 9.8e-6    # per step x parse-tree node: the SX graph evaluated at every step (27 MB / 3.06M)
+PER_GRID_SENSITIVITY_MB = 9.7e-4   # per step x sensitivity state (robust: states x (states + draws))
+PER_CHECK_NUMBER_MB = 62e-6  # per number of the minimum-principle check's largest block (see above)
+# The minimum-principle check's candidate controls at the dense re-flight's samples (controls x (41 per
+# control + 2^controls corners up to 6 controls) x samples, doubles), held whole for one phase at a time, about
+# twice over (the candidate sets and their concatenation): what made `wider` (20 controls) 2.6 GB.
+CANDIDATE_COPIES = 2.02
+# solvers.ocp.minimum_principle's GRID, BLOCK and CORNERS and solvers.ocp.verify's SAMPLES_PER_INTERVAL, here
+# so that the API sizes a job without importing CasADi (tests/unit/test_ocp_memory.py checks they agree)
+GRID, BLOCK, CORNERS, SAMPLES_PER_INTERVAL = 41, 2_000_000, 6, 20
+
+
+def _samples(ph: PhaseSize) -> int:
+    """The dense re-flight's samples on the check's mesh, where the minimum principle is checked."""
+    return ph.intervals * ph.parts * SAMPLES_PER_INTERVAL + 1
+
+
+def _candidates(ph: PhaseSize) -> int:
+    return GRID * ph.controls + (2 ** ph.controls if ph.controls <= CORNERS else 0)
 
 
 def candidates_mb(ph: PhaseSize) -> float:
     """MB of one phase's minimum-principle candidates (see CANDIDATE_COPIES)."""
-    corners = 2 ** ph.controls if ph.controls <= 6 else 0
-    samples = ph.intervals * ph.parts * SAMPLES_PER_INTERVAL
-    return CANDIDATE_COPIES * ph.controls * (41 * ph.controls + corners) * samples * 8 / 1e6
+    return CANDIDATE_COPIES * ph.controls * _candidates(ph) * _samples(ph) * 8 / 1e6
+
+
+def check_block_numbers(ph: PhaseSize) -> float:
+    """Numbers in the minimum-principle check's largest evaluation of H (``h_of``: whole candidates at every
+    sample, as many as fit in BLOCK numbers, at least one): time, states, costates, controls, path
+    multipliers and bounds per column."""
+    samples, rows = _samples(ph), 2 * ph.states + ph.controls + 2 * ph.paths + 1
+    at_once = min(_candidates(ph), max(1, BLOCK // (samples * rows)))
+    return float(at_once * samples * rows)
 
 
 def _growth_mb(params: dict) -> float:
-    """MB past the floor: the NLPs of every phase (they are one NLP), their expression graphs, the robust
-    sensitivities, and the largest phase's minimum-principle candidates (the checks run a phase at a time)."""
+    """MB past the floor: the NLPs of every phase (they are one NLP: width, expression graph, robust
+    sensitivities), and the largest phase's minimum-principle check (the checks run a phase at a time)."""
     phases = phase_sizes(params)
     if not phases:
         return 0.0
-    w = draws(params)
     nlp = sum(ph.grid * (PER_GRID_WIDTH_MB * ph.width + PER_GRID_NODE_MB * ph.nodes
-                         + PER_GRID_SENSITIVITY_MB * ph.sensitivities
-                         + (PER_GRID_NODE_DIRECTION_MB * ph.nodes * (ph.states + w) if w else 0.0))
-              for ph in phases)
-    return nlp + max(candidates_mb(ph) for ph in phases)
+                         + PER_GRID_SENSITIVITY_MB * ph.sensitivities) for ph in phases)
+    return nlp + max(candidates_mb(ph) + PER_CHECK_NUMBER_MB * check_block_numbers(ph) for ph in phases)
 
 
 MEMORY = MemoryModel(floor_mb=FLOOR_MB, size=_growth_mb, floor_size=0.0, per_unit_mb=1.0,
                      grows_with="the steps of the check's mesh (intervals x substeps or LGL nodes x its 2 or 3 "
-                                "parts) x (states + controls and the expressions' parse-tree nodes), a robust "
-                                "design's sensitivities, and controls^2 x intervals (the minimum-principle check)")
+                                "parts) x (states + controls, the expressions' parse-tree nodes and a robust "
+                                "design's sensitivity states), and the minimum-principle check's candidate "
+                                "controls x samples")
 
 
 def trajectory_table(result: dict) -> dict[str, list] | None:

@@ -48,6 +48,7 @@ class PhaseSize:
     states: int
     controls: int
     nodes: int            # parse-tree nodes of its dynamics, named expressions, path constraints, integrand
+    paths: int            # path constraints
     sensitivities: int    # robust design: states x (states + draws) per node (CADET's S and its rates), else 0
 
     @property
@@ -100,6 +101,7 @@ def phase_sizes(params: dict) -> list[PhaseSize]:
         nodes += sum(expression_nodes(c.get("expr")) for c in (body.get("path") or []) if isinstance(c, dict))
         nodes += expression_nodes((body.get("objective") or {}).get("integrand"))
         nx, nu = len(body.get("states") or []), len(body.get("controls") or [])
-        out.append(PhaseSize(shooting=shooting, intervals=intervals, steps=steps, parts=check_parts(tr), states=nx, controls=nu,
-                             nodes=nodes, sensitivities=nx * (nx + w) if w else 0))
+        paths = sum(1 for c in body.get("path") or [] if isinstance(c, dict))
+        out.append(PhaseSize(shooting=shooting, intervals=intervals, steps=steps, parts=check_parts(tr), states=nx,
+                             controls=nu, nodes=nodes, paths=paths, sensitivities=nx * (nx + w) if w else 0))
     return out
