@@ -89,6 +89,17 @@ def ocp_memory(entry: dict) -> str:
     return "\n".join(rows) + "\n\n" + _caption("ocp_memory", entry)
 
 
+def ocp_preset_memory(entry: dict) -> str:
+    """``ocp_preset_memory``: every ocp preset's estimate against the peak measured in a child, and their range."""
+    rows = ["| preset | estimate MB | measured peak MB | estimate / peak |", "|---|---|---|---|"]
+    figs = entry["figures"]
+    for name, f in figs.items():
+        rows.append(f"| `{name}` | {f['estimate_mb']:.0f} | {f['peak_mb']:.0f} | {f['ratio']:.2f} |")
+    ratios = [f["ratio"] for f in figs.values()]
+    return "\n".join(rows) + "\n\n" + _caption(
+        "ocp_preset_memory", entry, f"; {len(ratios)} presets, estimate / peak {min(ratios):.2f} to {max(ratios):.2f}")
+
+
 # the robust presets' deterministic twins and units, as docs/tutorials/ocp.md names them (declared, not measured)
 # (twin, unit, format of the twin's objective, of the robust one, of the cost)
 ROBUST_TWINS = {"rocket-ascent-q-limit-robust": ("rocket-ascent-q-limit", " m", "{:.1f}", "{:.0f}", "{:.0f}"),
@@ -137,7 +148,7 @@ def compiles(entry: dict) -> str:
 
 
 RENDERERS: dict[str, Callable[[dict], str]] = {"api_load": api_load, "compiles": compiles, "ocp_memory": ocp_memory,
-                                                 "ocp_robust": ocp_robust}
+                                                 "ocp_preset_memory": ocp_preset_memory, "ocp_robust": ocp_robust}
 
 
 def latest() -> dict:
