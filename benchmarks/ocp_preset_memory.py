@@ -2,7 +2,8 @@
 peak on every preset"), each preset run in a fresh process the way a worker's pool child runs it.
 
 Run: ``python -m benchmarks.ocp_preset_memory`` (``--presets a,b`` for a subset; ``--readme-only`` rewrites
-the README table from latest.json without measuring).
+the README table from latest.json without measuring; ``--estimates-only`` recomputes the estimates of the
+recorded peaks after a change of the model alone).
 
 The peak is the child's own high-water mark (``VmHWM``, :func:`benchmarks.ocp_memory.measure`); the
 estimate is :func:`app.service.job_memory.measured_mb` (without the margin).  Figures go to
@@ -14,7 +15,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from benchmarks.ocp_memory import README, measure
+from benchmarks.ocp_memory import README, measure, reestimate
 
 
 def ocp_presets() -> dict[str, dict]:
@@ -33,9 +34,13 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--presets", default="", help="comma-separated names (default: every ocp preset)")
     ap.add_argument("--readme-only", action="store_true", help="rewrite README's table from latest.json only")
+    ap.add_argument("--estimates-only", action="store_true",
+                    help="recompute the estimates of latest.json's peaks with the model as it is now, no measuring")
     args = ap.parse_args()
     from benchmarks.results import write_results
-    if args.readme_only:
+    if args.readme_only or args.estimates_only:
+        if args.estimates_only:
+            reestimate("ocp_preset_memory", ocp_presets())
         write_readme()
         return 0
     from app.service.job_memory import measured_mb

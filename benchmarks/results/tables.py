@@ -24,7 +24,9 @@ BLOCK = re.compile(r"(<!-- bench: (?P<name>[A-Za-z0-9_]+) -->\n)(?P<body>.*?)(<!
 
 
 def _caption(module: str, entry: dict, extra: str = "") -> str:
-    """The line under a table: what ran it, when and where (and ``extra``)."""
+    """The line under a table: what ran it, when and where (and ``extra``; a re-estimate's date)."""
+    if "estimated" in entry:
+        extra += f"; estimates of the model as of {entry['estimated']} (`--estimates-only`)"
     return f"(`python -m benchmarks.{module}`, {entry['when']}, {entry['machine']}{extra})"
 
 
