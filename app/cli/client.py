@@ -85,7 +85,10 @@ class Client:
         self.url = (url or os.environ.get("TRAJLAB_URL") or local).rstrip("/")
         key = api_key if api_key is not None else os.environ.get("TRAJLAB_API_KEY")
         self.headers = {"Authorization": f"Bearer {key}"} if key else {}
-        self.http = http or httpx.Client(base_url=self.url, timeout=timeout)
+        # A plain-http service needs no certificates: loading the system's CA bundle was a tenth of the time
+        # a `trajlab submit` took to send its job (redirects are not followed, so no https is reached unverified).
+        self.http = http or httpx.Client(base_url=self.url, timeout=timeout,
+                                         verify=not self.url.startswith("http://"))
 
     # --- plumbing ------------------------------------------------------------------------
     def _request(self, method: str, path: str, **kw) -> httpx.Response:
