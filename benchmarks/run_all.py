@@ -6,7 +6,8 @@ Each benchmark writes its own entry of ``benchmarks/results/latest.json`` (``wri
 name), so one that fails or hangs (killed at ``--timeout``) leaves the others' fresh figures in place.
 Its own entry is then the previous run's: the closing table says, for every benchmark, its exit status,
 its time and which entries of latest.json it wrote in this run, and the exit status is non-zero if any
-failed, naming them.
+failed, naming them.  Last, the docs' tables of figures are rendered from the new latest.json
+(:mod:`benchmarks.results.tables`, as ``scripts/docs_numbers.py --tables`` does).
 """
 from __future__ import annotations
 
@@ -18,6 +19,7 @@ import time
 from pathlib import Path
 
 from benchmarks.results import LATEST
+from benchmarks.results.tables import write_tables
 
 ROOT = Path(__file__).resolve().parents[1]
 # the order: quick ones first; the service benchmarks (their own servers and workers) last
@@ -53,6 +55,8 @@ def main() -> int:
     print(f"\n{'benchmark':<12}{'exit':>8}{'seconds':>10}  entries written to {LATEST.name}")
     for name, code, seconds, wrote in rows:
         print(f"{name:<12}{code!s:>8}{seconds:>10.0f}  {', '.join(wrote) or '(none: its entry, if any, is older)'}")
+    for page in write_tables():
+        print(f"{page}: tables rewritten from {LATEST.name}")
     failed = [name for name, code, _, _ in rows if code != 0]
     if failed:
         print(f"\nmake bench: {len(failed)} failed: {', '.join(failed)}; the others' figures are fresh", file=sys.stderr)
