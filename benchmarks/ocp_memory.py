@@ -84,6 +84,17 @@ def preset(name: str) -> dict:
     return PRESETS[name].params
 
 
+def on_intervals(body: dict, intervals: int) -> dict:
+    """``body`` (one phase) on ``intervals`` intervals."""
+    return {**body, "transcription": {**body["transcription"], "intervals": intervals}}
+
+
+def lgl(body: dict, *, nodes: int) -> dict:
+    """Every phase of ``body`` on LGL collocation of ``nodes`` nodes per interval."""
+    return {**body, "phases": [{**ph, "transcription": {"method": "lgl", "intervals": ph["transcription"]["intervals"],
+                                                        "nodes": nodes}} for ph in body["phases"]]}
+
+
 # What each case is, for the README's table.
 SIZES = {
     "narrow-long": "4 states, 2 controls, 1,000 intervals",
@@ -92,6 +103,8 @@ SIZES = {
     "wide-lgl": "20 states, 8 controls, 150 LGL intervals of 5 nodes",
     "three-phase": "3 phases of 6 states, 2 controls, 400 intervals",
     "three-phase-wide": "3 phases of 20 states, 8 controls, 100 intervals",
+    "piecewise-long": "the tumor-antiangiogenesis preset (3 states, 1 piecewise-constant control) on 800 intervals",
+    "two-phase-lgl": "2 phases of 10 states, 3 controls, 100 LGL intervals of 4 nodes",
     "robust-shuttle": "the betts-shuttle-robust-ocp preset (6 states, 2 controls, 2 draws, 100 intervals, 10,000 MC)",
     "robust-two-phase": "robust, 2 phases of 3 states, 1 control, 4 draws, 100 intervals each",
 }
@@ -103,6 +116,8 @@ CASES = {
     "wide-lgl": lambda: single(20, 8, 150, method="lgl", nodes=5),
     "three-phase": lambda: phased(3, 6, 2, 400),
     "three-phase-wide": lambda: phased(3, 20, 8, 100),
+    "piecewise-long": lambda: on_intervals(preset("tumor-antiangiogenesis"), 800),
+    "two-phase-lgl": lambda: lgl(phased(2, 10, 3, 100), nodes=4),
     "robust-shuttle": lambda: preset("betts-shuttle-robust-ocp"),
     "robust-two-phase": lambda: robust_two_phase(100),
 }
