@@ -21,8 +21,10 @@ from app.results.tables import columns, columns_at
 #   inputs, map and outputs; 175-260 MB on tumor-antiangiogenesis, freed after).  betts-shuttle-ocp peaks at
 #   341 MB there (not the 215 of an older measurement), and its robust twin at 349: the robust design's own
 #   growth (CADET's sensitivity states, 28,800 step-states) is the ~25 MB its coefficient gives, no more.
-# - Monte Carlo draws add nothing measurable: they run in chunks (10,000 against 2000 draws, 349 and 349 on
-#   the shuttle, 233 and 232 on the two-phase case).
+# - Monte Carlo draws add nothing measurable, so they are not counted: they run in chunks (10,000 against 2000
+#   draws, 349 and 349 on the shuttle, 233 and 232 on the two-phase case; 20,000 against 2000 there, 225 and 223).
+# - A piecewise-constant problem past about 1,000 intervals is dominated by MEMBER_COPIES' quadratic matrix
+#   (2.6 GB at 2,000 intervals): the estimate refuses it under a small cap rather than let the guard stop it.
 FLOOR_MB = 128.5             # the process, CasADi, IPOPT and a tiny problem (the smallest presets: 141-144)
 PER_GRID_WIDTH_MB = 1.68e-3  # per step of the check's NLP x (states + controls): variables, Jacobian, factors
 PER_GRID_NODE_MB = 12.3e-6   # per step x parse-tree node: the SX graph evaluated at every step (27 MB / 3.06M)
