@@ -9,7 +9,7 @@ import json
 import pytest
 
 from app.kinds import PRESETS
-from app.kinds.ocp.footprint import FLOOR_MB, PER_CHECK_NUMBER_MB, candidates_mb, check_block_numbers, member_mb
+from app.kinds.ocp.footprint import FLOOR_MB, PER_CHECK_NUMBER_MB, candidates_mb, check_block_numbers
 from app.kinds.ocp.kind import cost
 from app.kinds.ocp.size import phase_sizes
 from app.service.job_memory import measured_mb
@@ -23,7 +23,7 @@ def test_every_phase_counts_and_the_checks_hold_one_phase_at_a_time():
     one_mb, three_mb = measured_mb("ocp", one), measured_mb("ocp", three)
     assert one_mb is not None and three_mb is not None
     (ph,) = phase_sizes(one)
-    nlp = one_mb - FLOOR_MB - candidates_mb(ph) - PER_CHECK_NUMBER_MB * check_block_numbers(ph) - member_mb(ph)
+    nlp = one_mb - FLOOR_MB - candidates_mb(ph) - PER_CHECK_NUMBER_MB * check_block_numbers(ph)
     assert nlp > 0
     assert three_mb - one_mb == pytest.approx(2 * nlp, rel=1e-9)
 
@@ -53,22 +53,6 @@ def test_the_estimate_grows_with_the_robust_sensitivities():
     assert twin_mb is not None and robust_mb is not None and more_mb is not None
     assert twin_mb < robust_mb < more_mb
     assert cost(twin) < cost(robust) < cost(more)
-
-
-def test_piecewise_constant_controls_count_their_averaging_matrix():
-    """The check averages H over each interval through a samples x intervals matrix: quadratic in the
-    intervals for piecewise-constant controls (tumor-antiangiogenesis: 415 MB at 400 intervals, 718 at 800),
-    nothing for linear ones."""
-    from benchmarks.ocp_memory import on_intervals
-
-    tumor = PRESETS["tumor-antiangiogenesis"].params
-    (p400,), (p800,) = phase_sizes(tumor), phase_sizes(on_intervals(tumor, 800))
-    assert member_mb(p800) == pytest.approx(4 * member_mb(p400), rel=1e-3)
-    linear = on_intervals({**tumor, "transcription": {**tumor["transcription"], "control": "linear"}}, 800)
-    (lin,) = phase_sizes(linear)
-    assert member_mb(lin) == 0.0
-    est = measured_mb("ocp", on_intervals(tumor, 800))
-    assert est is not None and 0.5 <= est / 718.0 <= 2.0
 
 
 def test_the_check_sizes_are_the_solvers():

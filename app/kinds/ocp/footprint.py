@@ -9,35 +9,32 @@ from app.results.tables import columns, columns_at
 
 
 # Calibration: peak resident MB (VmHWM) of the job in a fresh process (benchmarks/ocp_memory.py's child) on a
-# 2-core x86_64, 46 runs: every ocp preset (benchmarks/ocp_preset_memory.py: 141-415 MB), the cases of
-# benchmarks/ocp_memory.py (narrow-long 504, wide 1096, wider 2637, wide-lgl 570, three-phase 390,
-# three-phase-wide 547, robust-shuttle 344, robust-two-phase 223), 4x2 on 300 intervals 312 and the same with
-# 1700 more parse-tree nodes in its dynamics (25 sin*cos terms per state) 339, 10x8 on 200 761, two LGL
-# phases of 10x3 on 100 intervals of 4 nodes 316, the robust shuttle on 300 intervals 388, tumor-antiangiogenesis
-# on 800 intervals 718, free-flying-robot on 120 289.  Least squares of estimate/peak - 1 with every
-# coefficient >= 0: estimate/peak 0.77 (betts-shuttle-heat-limit-ocp) to 1.17 over all 46.  What it says:
+# 2-core x86_64, 45 runs: every ocp preset (benchmarks/ocp_preset_memory.py: 128-385 MB), the cases of
+# benchmarks/ocp_memory.py (narrow-long 524, wide 1170, wider 2641, wide-lgl 572, three-phase 390,
+# three-phase-wide 547, piecewise-long 326, two-phase-lgl 301, robust-shuttle 345, robust-two-phase 223),
+# 4x2 on 300 intervals 312 and the same with 1700 more parse-tree nodes in its dynamics (25 sin*cos terms per
+# state) 339, 10x8 on 200 761, the robust shuttle on 300 intervals 388.  Least squares of estimate/peak - 1
+# with every coefficient >= 0: estimate/peak 0.78 (betts-shuttle-heat-limit-ocp) to 1.16 over all 45.
+# What it says:
 # - a small problem's peak is the dense checks', not its NLP's: the minimum-principle check evaluates H at
-#   candidate controls x re-flight samples, BLOCK numbers at a time, about 62 bytes a number (CasADi's
-#   inputs, map and outputs; 175-260 MB on tumor-antiangiogenesis, freed after).  betts-shuttle-ocp peaks at
-#   341 MB there (not the 215 of an older measurement), and its robust twin at 349: the robust design's own
+#   candidate controls x re-flight samples, BLOCK numbers at a time, about 61 bytes a number (CasADi's
+#   inputs, map and outputs, freed after).  betts-shuttle-ocp peaks at 336-341 MB there (not the 215 of
+#   an older measurement), and its robust twin at 345-349: the robust design's own
 #   growth (CADET's sensitivity states, 28,800 step-states) is the ~25 MB its coefficient gives, no more.
 # - Monte Carlo draws add nothing measurable, so they are not counted: they run in chunks (10,000 against 2000
 #   draws, 349 and 349 on the shuttle, 233 and 232 on the two-phase case; 20,000 against 2000 there, 225 and 223).
-# - A piecewise-constant problem past about 1,000 intervals is dominated by MEMBER_COPIES' quadratic matrix
-#   (2.6 GB at 2,000 intervals): the estimate refuses it under a small cap rather than let the guard stop it.
-FLOOR_MB = 128.5             # the process, CasADi, IPOPT and a tiny problem (the smallest presets: 141-144)
-PER_GRID_WIDTH_MB = 1.68e-3  # per step of the check's NLP x (states + controls): variables, Jacobian, factors
-PER_GRID_NODE_MB = 12.3e-6   # per step x parse-tree node: the SX graph evaluated at every step (27 MB / 3.06M)
-PER_GRID_SENSITIVITY_MB = 9.8e-4   # per step x sensitivity state (robust: states x (states + draws))
-PER_CHECK_NUMBER_MB = 59e-6  # per number of the minimum-principle check's largest block (see above)
-# Piecewise-constant controls (multiple shooting, control "constant"): the check averages H over each
-# interval's samples through a dense samples x intervals matrix (solvers.ocp.minimum_principle's ``member``),
-# quadratic in the intervals: 102 MB for tumor-antiangiogenesis's 400, 410 MB at 800.  Held about once more.
-MEMBER_COPIES = 1.12
+# - Piecewise-constant controls cost nothing more since the check averages H over each interval by index
+#   (it used a samples x intervals matrix, quadratic in the intervals: tumor-antiangiogenesis on 800
+#   intervals peaked at 720 MB with it, 326 without).
+FLOOR_MB = 120.4             # the process, CasADi, IPOPT and a tiny problem (the smallest presets: 128-140)
+PER_GRID_WIDTH_MB = 1.85e-3  # per step of the check's NLP x (states + controls): variables, Jacobian, factors
+PER_GRID_NODE_MB = 12.2e-6   # per step x parse-tree node: the SX graph evaluated at every step (27 MB / 3.06M)
+PER_GRID_SENSITIVITY_MB = 1.05e-3  # per step x sensitivity state (robust: states x (states + draws))
+PER_CHECK_NUMBER_MB = 61e-6  # per number of the minimum-principle check's largest block (see above)
 # The minimum-principle check's candidate controls at the dense re-flight's samples (controls x (41 per
 # control + 2^controls corners up to 6 controls) x samples, doubles), held whole for one phase at a time, about
 # twice over (the candidate sets and their concatenation): what made `wider` (20 controls) 2.6 GB.
-CANDIDATE_COPIES = 1.97
+CANDIDATE_COPIES = 2.03
 # solvers.ocp.minimum_principle's GRID, BLOCK and CORNERS and solvers.ocp.verify's SAMPLES_PER_INTERVAL, here
 # so that the API sizes a job without importing CasADi (tests/unit/test_ocp_memory.py checks they agree)
 GRID, BLOCK, CORNERS, SAMPLES_PER_INTERVAL = 41, 2_000_000, 6, 20
@@ -66,16 +63,9 @@ def check_block_numbers(ph: PhaseSize) -> float:
     return float(at_once * samples * rows)
 
 
-def member_mb(ph: PhaseSize) -> float:
-    """MB of one phase's interval-averaging matrix (piecewise-constant controls only; see MEMBER_COPIES)."""
-    if not ph.shooting or ph.parts != 2:        # parts 2 in multiple shooting: constant controls (check_parts)
-        return 0.0
-    return MEMBER_COPIES * _samples(ph) * ph.intervals * ph.parts * 8 / 1e6
-
-
 def _check_mb(ph: PhaseSize) -> float:
-    """MB of one phase's minimum-principle check: its candidates, its largest block, its averaging matrix."""
-    return candidates_mb(ph) + PER_CHECK_NUMBER_MB * check_block_numbers(ph) + member_mb(ph)
+    """MB of one phase's minimum-principle check: its candidates and its largest block."""
+    return candidates_mb(ph) + PER_CHECK_NUMBER_MB * check_block_numbers(ph)
 
 
 def _growth_mb(params: dict) -> float:
@@ -93,7 +83,7 @@ MEMORY = MemoryModel(floor_mb=FLOOR_MB, size=_growth_mb, floor_size=0.0, per_uni
                      grows_with="the steps of the check's mesh (intervals x substeps or LGL nodes x its 2 or 3 "
                                 "parts) x (states + controls, the expressions' parse-tree nodes and a robust "
                                 "design's sensitivity states), and the minimum-principle check's candidate "
-                                "controls x samples (x intervals for piecewise-constant controls)")
+                                "controls x samples")
 
 
 def trajectory_table(result: dict) -> dict[str, list] | None:
