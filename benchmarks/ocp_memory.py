@@ -157,6 +157,22 @@ def reestimate(name: str, bodies: dict[str, dict]) -> None:
     LATEST.write_text(json.dumps(data, indent=1, sort_keys=True) + "\n")
 
 
+def measure_all(bodies: dict[str, dict], label: str, width: int) -> dict[str, dict]:
+    """Each body's peak (:func:`measure`, one fresh process each, one after another) beside its estimate,
+    printed as it comes: ``{name: {status, error, peak_mb, estimate_mb, ratio}}``."""
+    from app.service.job_memory import measured_mb
+
+    figures = {}
+    print(f"{label:<{width}}{'status':<11}{'estimate MB':>13}{'peak MB':>10}{'ratio':>8}")
+    for name, params in bodies.items():
+        est = measured_mb("ocp", params) or 0.0
+        r = measure(params)
+        r.update(estimate_mb=est, ratio=est / r["peak_mb"])
+        figures[name] = r
+        print(f"{name:<{width}}{r['status']:<11}{est:>13.0f}{r['peak_mb']:>10.0f}{r['ratio']:>8.2f}", flush=True)
+    return figures
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--cases", default=",".join(CASES))
@@ -170,17 +186,7 @@ def main() -> int:
             reestimate("ocp_memory", {name: make() for name, make in CASES.items()})
         write_readme()
         return 0
-    from app.service.job_memory import measured_mb
-
-    figures = {}
-    print(f"{'case':<20}{'status':<11}{'estimate MB':>13}{'peak MB':>10}{'ratio':>8}")
-    for name in args.cases.split(","):
-        params = CASES[name]()
-        est = measured_mb("ocp", params) or 0.0
-        r = measure(params)
-        r.update(estimate_mb=est, ratio=est / r["peak_mb"])
-        figures[name] = r
-        print(f"{name:<20}{r['status']:<11}{est:>13.0f}{r['peak_mb']:>10.0f}{r['ratio']:>8.2f}", flush=True)
+    figures = measure_all({name: CASES[name]() for name in args.cases.split(",")}, "case", 20)
     write_results("ocp_memory", figures)
     write_readme()
     return 0

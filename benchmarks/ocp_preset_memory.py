@@ -15,7 +15,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from benchmarks.ocp_memory import README, measure, reestimate
+from benchmarks.ocp_memory import README, measure_all, reestimate
 
 
 def ocp_presets() -> dict[str, dict]:
@@ -43,18 +43,9 @@ def main() -> int:
             reestimate("ocp_preset_memory", ocp_presets())
         write_readme()
         return 0
-    from app.service.job_memory import measured_mb
-
     bodies = ocp_presets()
     names = args.presets.split(",") if args.presets else list(bodies)
-    figures = {}
-    print(f"{'preset':<40}{'status':<11}{'estimate MB':>13}{'peak MB':>10}{'ratio':>8}")
-    for name in names:
-        est = measured_mb("ocp", bodies[name]) or 0.0
-        r = measure(bodies[name])
-        r.update(estimate_mb=est, ratio=est / r["peak_mb"])
-        figures[name] = r
-        print(f"{name:<40}{r['status']:<11}{est:>13.0f}{r['peak_mb']:>10.0f}{r['ratio']:>8.2f}", flush=True)
+    figures = measure_all({name: bodies[name] for name in names}, "preset", 40)
     write_results("ocp_preset_memory", figures)
     write_readme()
     return 0
