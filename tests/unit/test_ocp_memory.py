@@ -9,7 +9,7 @@ import json
 import pytest
 
 from app.kinds import PRESETS
-from app.kinds.ocp.footprint import FLOOR_MB, PER_CHECK_NUMBER_MB, candidates_mb, check_block_numbers
+from app.kinds.ocp.footprint import BLOCK, FLOOR_MB, PER_CHECK_NUMBER_MB, candidates_mb, check_block_numbers
 from app.kinds.ocp.kind import cost
 from app.kinds.ocp.size import phase_sizes
 from app.service.job_memory import measured_mb
@@ -55,13 +55,28 @@ def test_the_estimate_grows_with_the_robust_sensitivities():
     assert cost(twin) < cost(robust) < cost(more)
 
 
+def test_the_check_is_bounded_whatever_the_width_and_length():
+    """The minimum-principle check takes its candidates a block at a time (solvers.ocp.minimum_principle):
+    its share of the estimate stays under one BLOCK of candidates and one of evaluated numbers from 2 to 20
+    controls, 100 to 1,600 intervals, piecewise-constant controls included."""
+    from benchmarks.ocp_memory import on_intervals
+
+    tumor = PRESETS["tumor-antiangiogenesis"].params
+    bodies = [single(n, m, k) for n, m in ((4, 2), (30, 10), (50, 20)) for k in (100, 400, 1600)]
+    bodies += [on_intervals(tumor, k) for k in (400, 800, 1600)]
+    bound = 8 * BLOCK / 1e6 + PER_CHECK_NUMBER_MB * BLOCK
+    for body in bodies:
+        for ph in phase_sizes(body):
+            assert candidates_mb(ph) + PER_CHECK_NUMBER_MB * check_block_numbers(ph) <= bound
+
+
 def test_the_check_sizes_are_the_solvers():
     """The footprint mirrors the minimum-principle check's constants so the API needs no CasADi: they agree."""
     from app.kinds.ocp import footprint
     from solvers.ocp import minimum_principle, verify
 
-    assert (footprint.GRID, footprint.BLOCK, footprint.CORNERS) == (minimum_principle.GRID, minimum_principle.BLOCK,
-                                                                     minimum_principle.CORNERS)
+    assert (footprint.GRID, footprint.ZOOM, footprint.BLOCK, footprint.CORNERS) == (
+        minimum_principle.GRID, minimum_principle.ZOOM, minimum_principle.BLOCK, minimum_principle.CORNERS)
     assert footprint.SAMPLES_PER_INTERVAL == verify.SAMPLES_PER_INTERVAL
 
 

@@ -15,6 +15,8 @@ from app.results.tables import columns, columns_at
 # 4x2 on 300 intervals 312 and the same with 1700 more parse-tree nodes in its dynamics (25 sin*cos terms per
 # state) 339, 10x8 on 200 761, the robust shuttle on 300 intervals 388.  Least squares of estimate/peak - 1
 # with every coefficient >= 0: estimate/peak 0.78 (betts-shuttle-heat-limit-ocp) to 1.16 over all 45.
+# (Those peaks were the check's before its blocks; re-measured since where its candidates counted, see
+# CANDIDATE_COPIES below: estimate/peak 0.76-1.21 over latest.json's 41.)
 # What it says:
 # - a small problem's peak is the dense checks', not its NLP's: the minimum-principle check evaluates H at
 #   candidate controls x re-flight samples, BLOCK numbers at a time, about 61 bytes a number (CasADi's
@@ -31,13 +33,16 @@ PER_GRID_WIDTH_MB = 1.85e-3  # per step of the check's NLP x (states + controls)
 PER_GRID_NODE_MB = 12.2e-6   # per step x parse-tree node: the SX graph evaluated at every step (27 MB / 3.06M)
 PER_GRID_SENSITIVITY_MB = 1.05e-3  # per step x sensitivity state (robust: states x (states + draws))
 PER_CHECK_NUMBER_MB = 61e-6  # per number of the minimum-principle check's largest block (see above)
-# The minimum-principle check's candidate controls at the dense re-flight's samples (controls x (41 per
-# control + 2^controls corners up to 6 controls) x samples, doubles), held whole for one phase at a time, about
-# twice over (the candidate sets and their concatenation): what made `wider` (20 controls) 2.6 GB.
-CANDIDATE_COPIES = 2.03
-# solvers.ocp.minimum_principle's GRID, BLOCK and CORNERS and solvers.ocp.verify's SAMPLES_PER_INTERVAL, here
-# so that the API sizes a job without importing CasADi (tests/unit/test_ocp_memory.py checks they agree)
-GRID, BLOCK, CORNERS, SAMPLES_PER_INTERVAL = 41, 2_000_000, 6, 20
+# The minimum-principle check takes its candidate controls a block of whole intervals at a time
+# (solvers.ocp.minimum_principle): at most BLOCK candidate numbers and BLOCK evaluated numbers per block,
+# whatever the width and length.  Until then it held every candidate at every sample of a phase, about twice
+# over: wider (20 controls) peaked at 2641 MB, 319 since; wide 1170, 298 since; narrow-long 524, 293 since;
+# three-phase-wide 547, 307 since (benchmarks/ocp_memory.py, each case in its own child).  A block's
+# candidates are held once.
+CANDIDATE_COPIES = 1.0
+# solvers.ocp.minimum_principle's GRID, ZOOM, BLOCK and CORNERS and solvers.ocp.verify's SAMPLES_PER_INTERVAL,
+# here so that the API sizes a job without importing CasADi (tests/unit/test_ocp_memory.py checks they agree)
+GRID, ZOOM, BLOCK, CORNERS, SAMPLES_PER_INTERVAL = 41, 21, 2_000_000, 6, 20
 
 
 def _samples(ph: PhaseSize) -> int:
@@ -49,22 +54,35 @@ def _candidates(ph: PhaseSize) -> int:
     return GRID * ph.controls + (2 ** ph.controls if ph.controls <= CORNERS else 0)
 
 
+def _rows(ph: PhaseSize) -> int:
+    """Numbers per column of an evaluation of H: time, states, costates, controls, path multipliers, bounds."""
+    return 2 * ph.states + ph.controls + 2 * ph.paths + 1
+
+
+def _block_samples(ph: PhaseSize) -> int:
+    """Samples in the check's largest block: as many as BLOCK allows (solvers.ocp.minimum_principle's
+    ``samples_at_once``), in whole intervals (one at least) where the controls are piecewise-constant."""
+    most = max(1, BLOCK // max(ph.controls * _candidates(ph), _rows(ph) * ZOOM, 1))
+    piecewise = ph.shooting and ph.parts == 2   # parts 2 in multiple shooting: constant controls (check_parts)
+    group = ph.parts * SAMPLES_PER_INTERVAL if piecewise else 1
+    return min(_samples(ph), max(group, most // group * group))
+
+
 def candidates_mb(ph: PhaseSize) -> float:
-    """MB of one phase's minimum-principle candidates (see CANDIDATE_COPIES)."""
-    return CANDIDATE_COPIES * ph.controls * _candidates(ph) * _samples(ph) * 8 / 1e6
+    """MB of one block's minimum-principle candidates (see CANDIDATE_COPIES): bounded by BLOCK."""
+    return CANDIDATE_COPIES * ph.controls * _candidates(ph) * _block_samples(ph) * 8 / 1e6
 
 
 def check_block_numbers(ph: PhaseSize) -> float:
-    """Numbers in the minimum-principle check's largest evaluation of H (``h_of``: whole candidates at every
-    sample, as many as fit in BLOCK numbers, at least one): time, states, costates, controls, path
-    multipliers and bounds per column."""
-    samples, rows = _samples(ph), 2 * ph.states + ph.controls + 2 * ph.paths + 1
+    """Numbers in the minimum-principle check's largest evaluation of H (``h_of`` on one block of samples:
+    as many candidates as fit in BLOCK numbers, at least one), ``_rows`` per column."""
+    samples, rows = _block_samples(ph), _rows(ph)
     at_once = min(_candidates(ph), max(1, BLOCK // (samples * rows)))
     return float(at_once * samples * rows)
 
 
 def _check_mb(ph: PhaseSize) -> float:
-    """MB of one phase's minimum-principle check: its candidates and its largest block."""
+    """MB of one phase's minimum-principle check: its largest block's candidates and evaluation."""
     return candidates_mb(ph) + PER_CHECK_NUMBER_MB * check_block_numbers(ph)
 
 
@@ -82,8 +100,8 @@ def _growth_mb(params: dict) -> float:
 MEMORY = MemoryModel(floor_mb=FLOOR_MB, size=_growth_mb, floor_size=0.0, per_unit_mb=1.0,
                      grows_with="the steps of the check's mesh (intervals x substeps or LGL nodes x its 2 or 3 "
                                 "parts) x (states + controls, the expressions' parse-tree nodes and a robust "
-                                "design's sensitivity states), and the minimum-principle check's candidate "
-                                "controls x samples")
+                                "design's sensitivity states), and the minimum-principle check's block of "
+                                "candidate controls x samples (bounded)")
 
 
 def trajectory_table(result: dict) -> dict[str, list] | None:
