@@ -58,7 +58,7 @@ def phased(k: int, n: int, m: int, intervals: int) -> dict:
 
 def robust_two_phase(intervals: int) -> dict:
     """A robust design of two phases (tests/unit/test_ocp_robust_phases.py's twin pair on ``intervals``
-    per phase): x'' = u + w, y' = -y + b, w and b uncertain and x(0), v(0) too (4 draws), the speed limit
+    per phase): x'' = u + w, y' = -y + b, w and b uncertain and x(0), v(0) too (4 uncertain quantities), the speed limit
     held at mean + 2 sigma, 2000 Monte Carlo draws."""
     dyn = {"x": "v", "v": "u + w", "y": "-y + b"}
     u = {"name": "u", "lower": -20.0, "upper": 20.0}
@@ -105,8 +105,8 @@ SIZES = {
     "three-phase-wide": "3 phases of 20 states, 8 controls, 100 intervals",
     "piecewise-long": "the tumor-antiangiogenesis preset (3 states, 1 piecewise-constant control) on 800 intervals",
     "two-phase-lgl": "2 phases of 10 states, 3 controls, 100 LGL intervals of 4 nodes",
-    "robust-shuttle": "the betts-shuttle-robust-ocp preset (6 states, 2 controls, 2 draws, 100 intervals, 10,000 MC)",
-    "robust-two-phase": "robust, 2 phases of 3 states, 1 control, 4 draws, 100 intervals each",
+    "robust-shuttle": "the betts-shuttle-robust-ocp preset (6 states, 2 controls, 2 uncertain quantities, 100 intervals, 10,000 Monte Carlo draws)",
+    "robust-two-phase": "robust, 2 phases of 3 states, 1 control, 4 uncertain quantities, 100 intervals each",
 }
 
 CASES = {
