@@ -173,23 +173,29 @@ def measure_all(bodies: dict[str, dict], label: str, width: int) -> dict[str, di
     return figures
 
 
-def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--cases", default=",".join(CASES))
+def command(entry: str, bodies: dict[str, dict], label: str, width: int, doc: str) -> int:
+    """The command line of both ocp memory benchmarks: measure the ``--<label>s`` named (default: every one of
+    ``bodies``) into latest.json's ``entry``, or only recompute its estimates (``--estimates-only``), then
+    rewrite the README's tables (all that ``--readme-only`` does)."""
+    ap = argparse.ArgumentParser(description=doc.split("\n")[0])
+    ap.add_argument(f"--{label}s", default="", help=f"comma-separated names (default: every {label})")
     ap.add_argument("--readme-only", action="store_true", help="rewrite README's table from latest.json only")
     ap.add_argument("--estimates-only", action="store_true",
                     help="recompute the estimates of latest.json's peaks with the model as it is now, no measuring")
     args = ap.parse_args()
-    from benchmarks.results import write_results
-    if args.readme_only or args.estimates_only:
-        if args.estimates_only:
-            reestimate("ocp_memory", {name: make() for name, make in CASES.items()})
-        write_readme()
-        return 0
-    figures = measure_all({name: CASES[name]() for name in args.cases.split(",")}, "case", 20)
-    write_results("ocp_memory", figures)
+    if args.estimates_only:
+        reestimate(entry, bodies)
+    elif not args.readme_only:
+        from benchmarks.results import write_results
+        picked = getattr(args, f"{label}s")
+        names = picked.split(",") if picked else list(bodies)
+        write_results(entry, measure_all({name: bodies[name] for name in names}, label, width))
     write_readme()
     return 0
+
+
+def main() -> int:
+    return command("ocp_memory", {name: make() for name, make in CASES.items()}, "case", 20, __doc__ or "")
 
 
 if __name__ == "__main__":

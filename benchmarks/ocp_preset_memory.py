@@ -12,10 +12,9 @@ estimate is :func:`app.service.job_memory.measured_mb` (without the margin).  Fi
 """
 from __future__ import annotations
 
-import argparse
 import sys
 
-from benchmarks.ocp_memory import README, measure_all, reestimate
+from benchmarks.ocp_memory import command
 
 
 def ocp_presets() -> dict[str, dict]:
@@ -25,30 +24,8 @@ def ocp_presets() -> dict[str, dict]:
     return {name: p.params for name, p in PRESETS.items() if p.kind == "ocp"}
 
 
-def write_readme() -> None:
-    from benchmarks.results.tables import write_tables
-    write_tables([README])
-
-
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--presets", default="", help="comma-separated names (default: every ocp preset)")
-    ap.add_argument("--readme-only", action="store_true", help="rewrite README's table from latest.json only")
-    ap.add_argument("--estimates-only", action="store_true",
-                    help="recompute the estimates of latest.json's peaks with the model as it is now, no measuring")
-    args = ap.parse_args()
-    from benchmarks.results import write_results
-    if args.readme_only or args.estimates_only:
-        if args.estimates_only:
-            reestimate("ocp_preset_memory", ocp_presets())
-        write_readme()
-        return 0
-    bodies = ocp_presets()
-    names = args.presets.split(",") if args.presets else list(bodies)
-    figures = measure_all({name: bodies[name] for name in names}, "preset", 40)
-    write_results("ocp_preset_memory", figures)
-    write_readme()
-    return 0
+    return command("ocp_preset_memory", ocp_presets(), "preset", 40, __doc__ or "")
 
 
 if __name__ == "__main__":

@@ -56,3 +56,16 @@ def until(predicate, what: str, bound_s: float = UNTIL_BOUND_S):
         assert time.monotonic() < deadline, what
         time.sleep(0.02)
     return value
+
+
+def robust_confirmed(body: dict, seed: int = 4):
+    """A robust ``ocp`` body designed and confirmed in this process, as the kind runs it (the design, the
+    result's ``robust`` block, the Monte Carlo summary): ``solvers.ocp.robust.solver.design_and_confirm``."""
+    import copy
+
+    from solvers.ocp import parse_problem
+    from solvers.ocp.robust.solver import design_and_confirm
+    from solvers.uncertainty.montecarlo import run_monte_carlo
+
+    return design_and_confirm(parse_problem(copy.deepcopy(body)), params=body, run_monte_carlo=run_monte_carlo,
+                              seed=seed)

@@ -17,17 +17,11 @@ import math
 import numpy as np
 import pytest
 
-from solvers.ocp import PRESETS, parse_problem
-from solvers.ocp.robust.solver import design_and_confirm
-from solvers.uncertainty.montecarlo import run_monte_carlo
+from solvers.ocp import PRESETS
+from tests.support import robust_confirmed
 from tests.unit.test_ocp_robust_phases import ONE, SB, SV, SW, SX, TWO
 
 LGL = {"method": "lgl", "intervals": 5, "nodes": 5}
-
-
-def _confirmed(body, seed=4):
-    return design_and_confirm(parse_problem(copy.deepcopy(body)), params=body, run_monte_carlo=run_monte_carlo,
-                              seed=seed)
 
 
 def _closed_form(design, *, y_atol: float) -> None:
@@ -45,7 +39,7 @@ def _closed_form(design, *, y_atol: float) -> None:
 def test_the_collocated_covariance_is_the_closed_form_and_the_monte_carlo_confirms_it():
     body = copy.deepcopy(ONE)
     body["transcription"] = LGL
-    rs, block, _ = _confirmed(body)
+    rs, block, _ = robust_confirmed(body)
     assert rs.solution.status.ok, rs.solution.status.message
     assert rs.solution.solver["method"] == "lgl" and rs.solution.solver["nodes_per_interval"] == 5
     assert rs.design.phases[0].t_nodes.size == 21             # 5 segments of 5 nodes, the ends shared
@@ -64,7 +58,7 @@ def test_several_lgl_phases_and_a_mixed_pair_carry_the_covariance_across_the_lin
     for second in (LGL, {"method": "multiple_shooting", "intervals": 10, "control": "constant", "substeps": 2}):
         body = copy.deepcopy(TWO)
         body["phases"][0]["transcription"], body["phases"][1]["transcription"] = LGL, second
-        rs, block, _ = _confirmed(body)
+        rs, block, _ = robust_confirmed(body)
         assert rs.solution.status.ok, rs.solution.status.message
         # RK4 on the shooting phase: its exp(-t) within (h/2)^4 / 120 ~ 3e-9 (test_ocp_robust_phases.py)
         _closed_form(rs.design, y_atol=1e-8)
@@ -94,7 +88,7 @@ def _objectives(method: str, intervals: tuple[int, ...]) -> dict[int, float]:
         body = copy.deepcopy(PRESETS["bryson-denham-robust"]["params"])
         body["transcription"] = ({"method": "lgl", "intervals": m, "nodes": 4} if method == "lgl"
                                  else {**body["transcription"], "intervals": m})
-        rs, block, _ = _confirmed(body, seed=0)
+        rs, block, _ = robust_confirmed(body, seed=0)
         assert rs.solution.status.ok and block["confirmed"] is True, rs.solution.status.message
         found[m] = rs.solution.objective
     return found

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from solvers.ocp import PRESETS, OcpInputError, parse_problem
+from tests.support import robust_confirmed
 from tests.unit.test_ocp_robust_phases import ONE, TWO, U
 
 RENAMED = copy.deepcopy(TWO)
@@ -29,17 +30,9 @@ RENAMED["links"] = [{"name": "same_x", "expr": 'initial(X, "b") - final(x, "a")'
                     {"name": "speed_doubled", "expr": 'initial(V, "b") - 2*final(v, "a")', "lower": 0.0, "upper": 0.0}]
 
 
-def _confirmed(body, seed):
-    from solvers.ocp.robust.solver import design_and_confirm
-    from solvers.uncertainty.montecarlo import run_monte_carlo
-
-    return design_and_confirm(parse_problem(copy.deepcopy(body)), params=body, run_monte_carlo=run_monte_carlo,
-                              seed=seed)
-
-
 @pytest.fixture(scope="module")
 def twins():
-    return _confirmed(ONE, 4), _confirmed(RENAMED, 4)
+    return robust_confirmed(ONE, 4), robust_confirmed(RENAMED, 4)
 
 
 def test_links_of_renamed_and_scaled_states_carry_the_one_phase_covariance(twins):
@@ -72,7 +65,7 @@ def test_an_expression_map_carries_the_covariance_by_its_jacobian_and_the_draws_
     _, (two, b2, s2) = twins
     body = copy.deepcopy(RENAMED)
     body["links"][1]["expr"] = 'initial(V, "b")**3 - 8*final(v, "a")**3'
-    rs, block, summary = _confirmed(body, 4)
+    rs, block, summary = robust_confirmed(body, 4)
     assert rs.solution.objective == pytest.approx(two.solution.objective, rel=1e-9)
     assert block["objective"]["cadet_std"] == pytest.approx(b2["objective"]["cadet_std"], rel=1e-9)
     assert summary["failed_samples"] == 0
@@ -101,7 +94,7 @@ TWO_STAGE_ROBUST["robust"] = {"k": 2.0, "monte_carlo": {"samples": 2000, "rounds
 
 
 def test_a_robust_two_stage_ascent_with_an_uncertain_dropped_structure_is_confirmed_by_its_monte_carlo():
-    rs, block, summary = _confirmed(TWO_STAGE_ROBUST, 7)
+    rs, block, summary = robust_confirmed(TWO_STAGE_ROBUST, 7)
     assert rs.solution.status.ok, rs.solution.status.message
     assert block["confirmed"] is True and summary["failed_samples"] == 0
     obj = block["objective"]

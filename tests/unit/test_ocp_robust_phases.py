@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 from solvers.ocp import PRESETS, parse_problem
+from tests.support import robust_confirmed
 
 DYN = {"x": "v", "v": "u + w", "y": "-y + b"}
 UNCERTAINTY = {"parameters": {"w": {"distribution": "normal", "sigma": 0.2}, "b": {"distribution": "normal", "sigma": 0.2}},
@@ -52,17 +53,9 @@ TWO = {"constants": {"b": 1.0, "w": 0.0},
        "uncertainty": UNCERTAINTY, "robust": ROBUST}
 
 
-def _confirmed(body, seed):
-    from solvers.ocp.robust.solver import design_and_confirm
-    from solvers.uncertainty.montecarlo import run_monte_carlo
-
-    return design_and_confirm(parse_problem(copy.deepcopy(body)), params=body, run_monte_carlo=run_monte_carlo,
-                              seed=seed)
-
-
 @pytest.fixture(scope="module")
 def twins():
-    return _confirmed(ONE, 4), _confirmed(TWO, 4)
+    return robust_confirmed(ONE, 4), robust_confirmed(TWO, 4)
 
 
 def test_the_covariance_crosses_the_link_as_the_closed_form(twins):

@@ -31,7 +31,7 @@ from app.results.tables import columns, columns_at
 FLOOR_MB = 120.4             # the process, CasADi, IPOPT and a tiny problem (the smallest presets: 128-140)
 PER_GRID_WIDTH_MB = 1.85e-3  # per step of the check's NLP x (states + controls): variables, Jacobian, factors
 PER_GRID_NODE_MB = 12.2e-6   # per step x parse-tree node: the SX graph evaluated at every step (27 MB / 3.06M)
-PER_GRID_SENSITIVITY_MB = 1.05e-3  # per step x sensitivity state (robust: states x (states + draws))
+PER_GRID_SENSITIVITY_MB = 1.05e-3  # per step x sensitivity state (robust: states x (states + uncertain quantities))
 PER_CHECK_NUMBER_MB = 61e-6  # per number of the minimum-principle check's largest block (see above)
 # The minimum-principle check takes its candidate controls a block of whole intervals at a time
 # (solvers.ocp.minimum_principle): at most BLOCK candidate numbers and BLOCK evaluated numbers per block,
